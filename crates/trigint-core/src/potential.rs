@@ -1,0 +1,269 @@
+//! Potentials U(q) with their forces g(q) = -∇U(q).
+//!
+//! The stepping kernels are generic over [`Potential`], so a native potential is
+//! inlined into the loop. Forces are written as `f = -∇U` because that is what the
+//! recursions consume.
+
+use crate::error::{CoreError, CoreResult};
+
+/// A potential U: ℝⁿ → ℝ together with its force g = −∇U.
+pub trait Potential: Sync {
+    /// Number of coordinates the potential acts on.
+    fn dim(&self) -> usize;
+
+    /// U(x).
+    fn value(&self, x: &[f64]) -> CoreResult<f64>;
+
+    /// Writes g(x) = −∇U(x) into `f` (same length as `x`).
+    fn force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<()>;
+
+    /// U(x) and g(x) in one pass; potentials override it when the two share work.
+    #[inline]
+    fn value_and_force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<f64> {
+        self.force(x, f)?;
+        self.value(x)
+    }
+
+    /// Checks that `n` coordinates fit this potential.
+    fn check_dim(&self, n: usize) -> CoreResult<()> {
+        if n == self.dim() {
+            Ok(())
+        } else {
+            Err(CoreError::DimensionMismatch { expected: self.dim(), got: n })
+        }
+    }
+}
+
+/// The Fermi–Pasta–Ulam problem with alternating stiff and soft springs in the
+/// variables x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ) [Hairer–Lubich–Wanner, GNI §I.5]:
+///
+/// U(x) = ¼ [ (x₀,₁ − x₁,₁)⁴ + Σᵢ₌₁^{m−1} (x₀,ᵢ₊₁ − x₁,ᵢ₊₁ − x₀,ᵢ − x₁,ᵢ)⁴ + (x₀,ₘ + x₁,ₘ)⁴ ].
+///
+/// The first m coordinates are slow (ω = 0), the last m carry the stiff frequency.
+#[derive(Debug, Clone, Copy)]
+pub struct Fpu {
+    pub m: usize,
+}
+
+impl Fpu {
+    pub fn new(m: usize) -> CoreResult<Self> {
+        if m == 0 {
+            return Err(CoreError::invalid("m", "the FPU chain needs m >= 1 stiff springs"));
+        }
+        Ok(Fpu { m })
+    }
+
+    /// The m + 1 soft-spring elongations d_i; calls `visit(i, d_i)` in order.
+    /// `m` is taken from the slice length so that a fixed-size state unrolls.
+    #[inline(always)]
+    fn for_each_spring(x: &[f64], mut visit: impl FnMut(usize, f64)) {
+        let m = x.len() / 2;
+        let (x0, x1) = x.split_at(m);
+        visit(0, x0[0] - x1[0]);
+        for i in 1..m {
+            visit(i, x0[i] - x1[i] - x0[i - 1] - x1[i - 1]);
+        }
+        visit(m, x0[m - 1] + x1[m - 1]);
+    }
+
+    #[inline(always)]
+    fn accumulate_force(x: &[f64], f: &mut [f64]) -> f64 {
+        let m = x.len() / 2;
+        f.fill(0.0);
+        let mut value = 0.0;
+        let (f0, f1) = f.split_at_mut(m);
+        Self::for_each_spring(x, |i, d| {
+            let d3 = d * d * d;
+            value += 0.25 * (d3 * d);
+            if i == 0 {
+                f0[0] -= d3;
+                f1[0] += d3;
+            } else if i == m {
+                f0[m - 1] -= d3;
+                f1[m - 1] -= d3;
+            } else {
+                f0[i] -= d3;
+                f1[i] += d3;
+                f0[i - 1] += d3;
+                f1[i - 1] += d3;
+            }
+        });
+        value
+    }
+}
+
+impl Potential for Fpu {
+    fn dim(&self) -> usize {
+        2 * self.m
+    }
+
+    #[inline]
+    fn value(&self, x: &[f64]) -> CoreResult<f64> {
+        let mut value = 0.0;
+        Self::for_each_spring(x, |_, d| value += 0.25 * (d * d * d * d));
+        Ok(value)
+    }
+
+    #[inline]
+    fn force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<()> {
+        Self::accumulate_force(x, f);
+        Ok(())
+    }
+
+    #[inline]
+    fn value_and_force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<f64> {
+        Ok(Self::accumulate_force(x, f))
+    }
+}
+
+/// A sparse polynomial U(x) = Σₜ cₜ Πᵢ xᵢ^{eₜᵢ}, stored term by term as lists of
+/// (variable, exponent) factors with non-zero exponents.
+#[derive(Debug, Clone)]
+pub struct Polynomial {
+    dim: usize,
+    coefficients: Vec<f64>,
+    /// Term t's factors are `factors[offsets[t]..offsets[t + 1]]`.
+    offsets: Vec<usize>,
+    factors: Vec<(usize, i32)>,
+}
+
+impl Polynomial {
+    /// Builds the polynomial from coefficients (length T) and a dense exponent
+    /// matrix in row-major order (T × dim, non-negative integers).
+    pub fn new(dim: usize, coefficients: Vec<f64>, exponents: &[i64]) -> CoreResult<Self> {
+        if dim == 0 {
+            return Err(CoreError::invalid("dim", "a polynomial needs at least one variable"));
+        }
+        if exponents.len() != coefficients.len() * dim {
+            return Err(CoreError::invalid(
+                "exponents",
+                format!(
+                    "expected {} x {} exponents, got {} values",
+                    coefficients.len(),
+                    dim,
+                    exponents.len()
+                ),
+            ));
+        }
+        if let Some(c) = coefficients.iter().find(|c| !c.is_finite()) {
+            return Err(CoreError::invalid("coefficients", format!("must be finite, got {c}")));
+        }
+        let mut offsets = vec![0];
+        let mut factors = Vec::new();
+        for row in exponents.chunks(dim) {
+            for (var, &e) in row.iter().enumerate() {
+                if !(0..=i32::MAX as i64).contains(&e) {
+                    return Err(CoreError::invalid(
+                        "exponents",
+                        format!("must be non-negative integers, got {e}"),
+                    ));
+                }
+                if e > 0 {
+                    factors.push((var, e as i32));
+                }
+            }
+            offsets.push(factors.len());
+        }
+        Ok(Polynomial { dim, coefficients, offsets, factors })
+    }
+
+    #[inline]
+    fn term(&self, t: usize) -> &[(usize, i32)] {
+        &self.factors[self.offsets[t]..self.offsets[t + 1]]
+    }
+}
+
+impl Potential for Polynomial {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+
+    fn value(&self, x: &[f64]) -> CoreResult<f64> {
+        let mut value = 0.0;
+        for (t, &c) in self.coefficients.iter().enumerate() {
+            let product: f64 = self.term(t).iter().map(|&(v, e)| x[v].powi(e)).product();
+            value += c * product;
+        }
+        Ok(value)
+    }
+
+    fn force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<()> {
+        f.fill(0.0);
+        for (t, &c) in self.coefficients.iter().enumerate() {
+            let term = self.term(t);
+            for (j, &(var, e)) in term.iter().enumerate() {
+                // ∂/∂x_var of c Π x^e: the product of the other factors, times e x^(e-1).
+                let mut d = c * f64::from(e) * x[var].powi(e - 1);
+                for (k, &(v, ek)) in term.iter().enumerate() {
+                    if k != j {
+                        d *= x[v].powi(ek);
+                    }
+                }
+                f[var] -= d;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn numerical_force<P: Potential>(p: &P, x: &[f64]) -> Vec<f64> {
+        let h = 1e-6;
+        (0..x.len())
+            .map(|i| {
+                let (mut a, mut b) = (x.to_vec(), x.to_vec());
+                a[i] += h;
+                b[i] -= h;
+                -(p.value(&a).unwrap() - p.value(&b).unwrap()) / (2.0 * h)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fpu_standard_value() {
+        // x01 = 1, x11 = 1/50: U = ((0.98)^4 + (1.02)^4)/4.
+        let mut x = vec![0.0; 6];
+        x[0] = 1.0;
+        x[3] = 0.02;
+        let u = Fpu::new(3).unwrap().value(&x).unwrap();
+        assert!((u - 0.50120008).abs() < 1e-14, "{u}");
+    }
+
+    #[test]
+    fn fpu_force_is_minus_gradient() {
+        for m in 1..5 {
+            let p = Fpu::new(m).unwrap();
+            let x: Vec<f64> = (0..2 * m).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect();
+            let mut f = vec![0.0; 2 * m];
+            let v = p.value_and_force(&x, &mut f).unwrap();
+            assert!((v - p.value(&x).unwrap()).abs() < 1e-15);
+            for (a, b) in f.iter().zip(numerical_force(&p, &x)) {
+                assert!((a - b).abs() < 1e-8, "m={m}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn polynomial_matches_hand_written() {
+        // U = q0^3 + q0^4 - 2 q0 q1^2 on two variables.
+        let p = Polynomial::new(2, vec![1.0, 1.0, -2.0], &[3, 0, 4, 0, 1, 2]).unwrap();
+        let x = [0.7, -1.3];
+        let u = 0.7f64.powi(3) + 0.7f64.powi(4) - 2.0 * 0.7 * 1.69;
+        assert!((p.value(&x).unwrap() - u).abs() < 1e-14);
+        let mut f = [0.0; 2];
+        p.force(&x, &mut f).unwrap();
+        let g0 = 3.0 * 0.49 + 4.0 * 0.343 - 2.0 * 1.69;
+        let g1 = -2.0 * 0.7 * 2.0 * -1.3;
+        assert!((f[0] + g0).abs() < 1e-14 && (f[1] + g1).abs() < 1e-14);
+    }
+
+    #[test]
+    fn polynomial_rejects_bad_exponents() {
+        assert!(Polynomial::new(2, vec![1.0], &[1]).is_err());
+        assert!(Polynomial::new(1, vec![1.0], &[-1]).is_err());
+        assert!(Polynomial::new(1, vec![f64::NAN], &[1]).is_err());
+    }
+}
