@@ -8,6 +8,10 @@
 //! for the trigonometric methods (trigo)). The Python layer evaluates the filter functions
 //! and hands these arrays over; here they are checked and turned into the products the
 //! kernels use, so that a method is data and the loop is one.
+//!
+//! The kernels take 1 − c = 2 sin²(½hω̃) rather than c: it is known to full relative
+//! precision, so the summed form of the recursion (see `stepper`) has no systematic phase
+//! error from the rounding of cos(hω̃), which for small hω̃ is amplified by 1/sin(hω̃).
 
 use crate::error::{CoreError, CoreResult};
 
@@ -15,8 +19,8 @@ use crate::error::{CoreError, CoreResult};
 #[derive(Debug, Clone)]
 pub struct MethodCoefficients {
     pub h: f64,
-    /// cos(hω̃_i)
-    pub cos: Vec<f64>,
+    /// 1 − cos(hω̃_i) = 2 sin²(½hω̃_i), to full relative precision.
+    pub one_minus_cos: Vec<f64>,
     /// sin(hω̃_i), used by the one-step form only.
     pub sin: Vec<f64>,
     /// χ(hω̃_i); sinc(hω_i) for trigonometric methods. Must not vanish.
@@ -30,7 +34,7 @@ pub struct MethodCoefficients {
 impl MethodCoefficients {
     /// Number of coordinates.
     pub fn dim(&self) -> usize {
-        self.cos.len()
+        self.one_minus_cos.len()
     }
 
     /// Checks lengths, finiteness and χ ≠ 0.
@@ -46,12 +50,12 @@ impl MethodCoefficients {
             if v.len() != n {
                 return Err(CoreError::invalid(
                     "coefficients",
-                    format!("`{name}` has {} entries, `cos` has {n}", v.len()),
+                    format!("`{name}` has {} entries, `one_minus_cos` has {n}", v.len()),
                 ));
             }
         }
         for (name, v) in [
-            ("cos", &self.cos),
+            ("one_minus_cos", &self.one_minus_cos),
             ("sin", &self.sin),
             ("chi", &self.chi),
             ("psi", &self.psi),
@@ -80,20 +84,21 @@ impl MethodCoefficients {
         let mut k = KernelCoefficients {
             n,
             phi_is_identity: self.phi.iter().all(|&x| x == 1.0),
-            cos: self.cos.clone(),
-            two_cos: Vec::with_capacity(n),
+            one_minus_cos: self.one_minus_cos.clone(),
+            two_one_minus_cos: Vec::with_capacity(n),
             h2_psi: Vec::with_capacity(n),
+            half_h2_psi: Vec::with_capacity(n),
             phi: self.phi.clone(),
             inv_2h_chi: Vec::with_capacity(n),
             h_chi: Vec::with_capacity(n),
             p_from_q: Vec::with_capacity(n),
             half_h_psi0: Vec::with_capacity(n),
             half_h_psi1: Vec::with_capacity(n),
-            half_h2_psi: Vec::with_capacity(n),
         };
         for i in 0..n {
-            let (c, s, chi, psi) = (self.cos[i], self.sin[i], self.chi[i], self.psi[i]);
-            k.two_cos.push(2.0 * c);
+            let (omc, s, chi, psi) = (self.one_minus_cos[i], self.sin[i], self.chi[i], self.psi[i]);
+            let c = 1.0 - omc;
+            k.two_one_minus_cos.push(2.0 * omc);
             k.h2_psi.push(h * h * psi);
             k.half_h2_psi.push(0.5 * h * h * psi);
             k.inv_2h_chi.push(1.0 / (2.0 * h * chi));
@@ -114,8 +119,9 @@ pub struct KernelCoefficients {
     pub n: usize,
     /// φ ≡ 1: the force is evaluated at q_n itself and shares its pass with U(q_n).
     pub phi_is_identity: bool,
-    pub cos: Vec<f64>,
-    pub two_cos: Vec<f64>,
+    /// 1 − c and 2(1 − c)
+    pub one_minus_cos: Vec<f64>,
+    pub two_one_minus_cos: Vec<f64>,
     pub h2_psi: Vec<f64>,
     pub half_h2_psi: Vec<f64>,
     pub phi: Vec<f64>,

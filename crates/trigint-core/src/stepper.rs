@@ -51,8 +51,8 @@ impl Storage for Vec<f64> {
 #[derive(Clone)]
 struct Coef<S> {
     phi_is_identity: bool,
-    cos: S,
-    two_cos: S,
+    one_minus_cos: S,
+    two_one_minus_cos: S,
     h2_psi: S,
     half_h2_psi: S,
     phi: S,
@@ -67,8 +67,8 @@ impl<S: Storage> Coef<S> {
     fn new(k: &KernelCoefficients) -> Self {
         Coef {
             phi_is_identity: k.phi_is_identity,
-            cos: S::from_slice(&k.cos),
-            two_cos: S::from_slice(&k.two_cos),
+            one_minus_cos: S::from_slice(&k.one_minus_cos),
+            two_one_minus_cos: S::from_slice(&k.two_one_minus_cos),
             h2_psi: S::from_slice(&k.h2_psi),
             half_h2_psi: S::from_slice(&k.half_h2_psi),
             phi: S::from_slice(&k.phi),
@@ -121,12 +121,16 @@ pub trait Stepper {
 
 /// The two-step form (trigo-mod): q_{n+1} = 2c q_n − q_{n−1} + h²ψ g(φ q_n),
 /// p_n = (q_{n+1} − q_{n−1}) / (2hχ); started by (trigo-q1).
+///
+/// It runs in summed form on d_n = q_n − q_{n−1}, which is the same recursion:
+/// d_{n+1} = d_n − 2(1 − c) q_n + h²ψ g(φq_n), q_{n+1} = q_n + d_{n+1},
+/// p_n = (d_{n+1} + d_n) / (2hχ). With 1 − c known to full precision this keeps the phase
+/// exact to rounding for small hω̃ (as the summed form of Störmer–Verlet does).
 pub struct TwoStep<'p, P, S> {
     pot: &'p P,
     k: Coef<S>,
-    q_prev: S,
     q: S,
-    q_next: S,
+    d: S,
     p: S,
     f: S,
     x: S,
@@ -137,18 +141,7 @@ pub struct TwoStep<'p, P, S> {
 impl<'p, P: Potential, S: Storage> TwoStep<'p, P, S> {
     pub fn new(pot: &'p P, k: &KernelCoefficients) -> Self {
         let z = S::from_slice(&vec![0.0; k.n]);
-        TwoStep {
-            pot,
-            k: Coef::new(k),
-            q_prev: z.clone(),
-            q: z.clone(),
-            q_next: z.clone(),
-            p: z.clone(),
-            f: z.clone(),
-            x: z,
-            u: f64::NAN,
-            n: 0,
-        }
+        TwoStep { pot, k: Coef::new(k), q: z.clone(), d: z.clone(), p: z.clone(), f: z.clone(), x: z, u: f64::NAN, n: 0 }
     }
 
     #[inline(always)]
@@ -166,14 +159,13 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
         if !rec.observe(0, q0, p0, self.u) {
             return Ok(false);
         }
-        // (trigo-q1): q_1 = cos(hω̃) q_0 + hχ p_0 + ½h²ψ g(φq_0).
+        // (trigo-q1): q_1 = c q_0 + hχ p_0 + ½h²ψ g(φq_0), i.e. d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g_0.
         let k = &self.k;
-        let (q, f, q1) = (self.q.get(), self.f.get(), self.q_next.get_mut());
+        let (q, f, d) = (self.q.get_mut(), self.f.get(), self.d.get_mut());
         for i in 0..q.len() {
-            q1[i] = k.cos.get()[i] * q[i] + k.h_chi.get()[i] * p0[i] + k.half_h2_psi.get()[i] * f[i];
+            d[i] = -(k.one_minus_cos.get()[i] * q[i]) + k.h_chi.get()[i] * p0[i] + k.half_h2_psi.get()[i] * f[i];
+            q[i] += d[i];
         }
-        std::mem::swap(&mut self.q_prev, &mut self.q);
-        std::mem::swap(&mut self.q, &mut self.q_next);
         self.n = 1;
         let want = rec.needs_potential_at(1);
         self.evaluate_current(want)?;
@@ -184,19 +176,20 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
     fn step(&mut self, rec: &mut Recorder) -> CoreResult<bool> {
         let k = &self.k;
         {
-            let (qm, q, f) = (self.q_prev.get(), self.q.get(), self.f.get());
-            let (qn, p) = (self.q_next.get_mut(), self.p.get_mut());
+            let (q, f, d, p) = (self.q.get(), self.f.get(), self.d.get_mut(), self.p.get_mut());
             for i in 0..q.len() {
-                qn[i] = k.two_cos.get()[i] * q[i] - qm[i] + k.h2_psi.get()[i] * f[i];
-                p[i] = (qn[i] - qm[i]) * k.inv_2h_chi.get()[i];
+                let next = d[i] - k.two_one_minus_cos.get()[i] * q[i] + k.h2_psi.get()[i] * f[i];
+                p[i] = (next + d[i]) * k.inv_2h_chi.get()[i];
+                d[i] = next;
             }
         }
         if !rec.observe(self.n, self.q.get(), self.p.get(), self.u) {
             return Ok(false);
         }
-        // Rotate (q_{n-1}, q_n, q_{n+1}) one step forward.
-        std::mem::swap(&mut self.q_prev, &mut self.q);
-        std::mem::swap(&mut self.q, &mut self.q_next);
+        let (q, d) = (self.q.get_mut(), self.d.get());
+        for i in 0..q.len() {
+            q[i] += d[i];
+        }
         self.n += 1;
         let want = rec.needs_potential_at(self.n);
         self.evaluate_current(want)?;
@@ -206,7 +199,8 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
 
 /// The one-step (velocity) form, equivalent to (trigo-mod) in exact arithmetic:
 /// q_{n+1} = c q_n + hχ p_n + ½h²ψ g_n,
-/// p_{n+1} = −s²/(hχ) q_n + c p_n + ½h (cψ/χ g_n + ψ/χ g_{n+1})   [GNI XIII (2.7)–(2.9)].
+/// p_{n+1} = −s²/(hχ) q_n + c p_n + ½h (cψ/χ g_n + ψ/χ g_{n+1})   [GNI XIII (2.7)–(2.9)],
+/// evaluated as increments, c x = x − (1 − c) x, for the same reason as the two-step form.
 pub struct OneStep<'p, P, S> {
     pot: &'p P,
     k: Coef<S>,
@@ -244,7 +238,7 @@ impl<'p, P: Potential, S: Storage> OneStep<'p, P, S> {
         {
             let (q, p, f, qn) = (self.q.get(), self.p.get(), self.f.get(), self.q_next.get_mut());
             for i in 0..q.len() {
-                qn[i] = k.cos.get()[i] * q[i] + k.h_chi.get()[i] * p[i] + k.half_h2_psi.get()[i] * f[i];
+                qn[i] = q[i] + (-(k.one_minus_cos.get()[i] * q[i]) + k.h_chi.get()[i] * p[i] + k.half_h2_psi.get()[i] * f[i]);
             }
         }
         let want = rec.needs_potential_at(self.n + 1);
@@ -252,8 +246,7 @@ impl<'p, P: Potential, S: Storage> OneStep<'p, P, S> {
         {
             let (q, p, f, fnx) = (self.q.get(), self.p.get_mut(), self.f.get(), self.f_next.get());
             for i in 0..q.len() {
-                p[i] = k.p_from_q.get()[i] * q[i]
-                    + k.cos.get()[i] * p[i]
+                p[i] += k.p_from_q.get()[i] * q[i] - k.one_minus_cos.get()[i] * p[i]
                     + (k.half_h_psi0.get()[i] * f[i] + k.half_h_psi1.get()[i] * fnx[i]);
             }
         }

@@ -12,7 +12,7 @@ fn method_b(h: f64, omega: &[f64]) -> MethodCoefficients {
     let xi: Vec<f64> = omega.iter().map(|w| h * w).collect();
     MethodCoefficients {
         h,
-        cos: xi.iter().map(|x| x.cos()).collect(),
+        one_minus_cos: xi.iter().map(|x| 2.0 * (0.5 * x).sin().powi(2)).collect(),
         sin: xi.iter().map(|x| x.sin()).collect(),
         chi: xi.iter().map(|&x| sinc(x)).collect(),
         psi: xi.iter().map(|&x| sinc(x)).collect(),
@@ -134,10 +134,13 @@ fn fixed_and_vector_storage_give_identical_bits() {
         }
         (rec.samples.q.clone(), rec.max_deviation())
     };
-    use trigint_core::stepper::{Stepper, TwoStep};
+    use trigint_core::stepper::{OneStep, Stepper, TwoStep};
     let a = run(&mut TwoStep::<_, [f64; 6]>::new(&pot, &k));
     let b = run(&mut TwoStep::<_, Vec<f64>>::new(&pot, &k));
     assert_eq!(a, b);
+    let c = run(&mut OneStep::<_, [f64; 6]>::new(&pot, &k));
+    let d = run(&mut OneStep::<_, Vec<f64>>::new(&pot, &k));
+    assert_eq!(c, d);
 }
 
 #[test]

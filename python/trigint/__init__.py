@@ -1,0 +1,52 @@
+"""trigint: long-time integration of highly oscillatory Hamiltonian systems.
+
+q'' + Ω²q = −∇U(q) by trigonometric and modified trigonometric integrators, after
+D. Cohen, L. Gauckler, E. Hairer, Ch. Lubich, *Long-term analysis of numerical integrators
+for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT 55 (2015).
+
+>>> import numpy as np, trigint as ti
+>>> prob = ti.problems.fpu(m=3, omega=50.0)
+>>> q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+>>> sol = ti.integrate(prob, ti.Trigonometric("B"), q0, p0, h=2*np.pi/3/50, t_end=30.0)
+>>> sol.status
+'completed'
+"""
+
+from . import problems
+from ._filters import sinc
+from .energies import energies
+from .integrate import integrate
+from .methods import (
+    IMEX,
+    AlphaMethod,
+    Coefficients,
+    Method,
+    ModifiedTrigonometric,
+    StormerVerlet,
+    Trigonometric,
+)
+from .potentials import FPUPotential, PolynomialPotential, Potential, PythonPotential
+from .problem import OscillatoryProblem
+from .solution import Solution
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "IMEX",
+    "AlphaMethod",
+    "Coefficients",
+    "FPUPotential",
+    "Method",
+    "ModifiedTrigonometric",
+    "OscillatoryProblem",
+    "PolynomialPotential",
+    "Potential",
+    "PythonPotential",
+    "Solution",
+    "StormerVerlet",
+    "Trigonometric",
+    "energies",
+    "integrate",
+    "problems",
+    "sinc",
+]

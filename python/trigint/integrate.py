@@ -1,0 +1,188 @@
+"""integrate(): validate, build the coefficients, run the core, build the Solution."""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+import xarray as xr
+
+from . import _core
+from .energies import energy_names, layout
+from .methods import Method, _check_h, resolve_method
+from .potentials import PythonPotential
+from .problem import OscillatoryProblem
+from .solution import Solution
+
+FORMS = ("two-step", "one-step")
+#: progress reports (and Ctrl-C checks) every this many steps; ~10 ms for native potentials
+PROGRESS_EVERY_NATIVE = 1 << 20
+PROGRESS_EVERY_PYTHON = 1 << 10
+#: show a progress bar by default from this many steps on
+PROGRESS_BAR_FROM = 10**7
+#: refuse runs whose samples would need more memory than this
+MAX_SAMPLE_BYTES = 8 << 30
+
+
+def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
+              t_end: float | None = None, n_steps: int | None = None, save_every: int = 1,
+              form: str = "two-step", track_energies: bool = True,
+              progress: bool | Callable | None = None) -> Solution:
+    """Integrates q'' + Ω²q = −∇U(q) from (q0, p0) with a trigonometric or modified method.
+
+    Runs the recursion (trigo)/(trigo-mod) started by (trigo-q1), with p_n by the central
+    difference (paper §2.2–2.3), or its one-step form (``form="one-step"``). The state at
+    step n, and every energy, is known once step n + 1 is taken.
+
+    Parameters
+    ----------
+    problem : OscillatoryProblem
+    method : Method or str
+        e.g. ``Trigonometric("B")``, ``IMEX()``, or a name such as ``"B"`` or ``"imex"``.
+    q0, p0 : array of shape (n,)
+    h : float
+        Step size, > 0.
+    t_end, n_steps : float or int
+        Give exactly one; ``n_steps = round(t_end / h)``.
+    save_every : int
+        Keep the state every this many steps (always step 0 and the last step).
+    form : {"two-step", "one-step"}
+    track_energies : bool
+        Stream max |E(t_n) − E(0)| over every step (default). Off, energies are computed only
+        at the samples and `max_deviation` is NaN.
+    progress : bool or callable, optional
+        A tqdm bar over steps (default: for runs of 10⁷ steps or more), or a callable
+        ``progress(steps_done)`` that may return False to stop.
+
+    Returns
+    -------
+    Solution
+        Memory is O(samples): 10⁹ steps with ``save_every=10**6`` keep 1001 states. A run whose
+        state turns non-finite stops with status ``"blow-up"``; Ctrl-C stops it with
+        ``"interrupted"``; both keep every sample taken.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.fpu(m=3, omega=50.0)
+    >>> q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    >>> sol = ti.integrate(prob, ti.Trigonometric("B"), q0, p0, h=2*np.pi/3/50,
+    ...                    t_end=30.0, save_every=10)
+    >>> sol.status, sol.n_steps
+    ('completed', 716)
+    >>> bool(sol.max_deviation["oscillatory"] < 0.05)
+    True
+    """
+    if not isinstance(problem, OscillatoryProblem):
+        raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    method = resolve_method(method)
+    h = _check_h(h)
+    n_steps = _resolve_steps(h, t_end, n_steps)
+    save_every = _positive_int(save_every, "save_every")
+    if form not in FORMS:
+        raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
+    q0 = _state(q0, "q0", problem.dim)
+    p0 = _state(p0, "p0", problem.dim)
+    n_samples = n_steps // save_every + 2
+    if n_samples * (2 * problem.dim + 4 + problem.n_blocks) * 8 > MAX_SAMPLE_BYTES:
+        raise ValueError(
+            f"save_every: {n_samples} samples of {problem.dim} coordinates would need more than "
+            f"{MAX_SAMPLE_BYTES >> 30} GiB; increase save_every"
+        )
+    co = method.coefficients(h, problem.omega)
+    w = layout(problem, co)
+    python_potential = isinstance(problem.potential, PythonPotential)
+    every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
+    callback, close = _progress(progress, n_steps, python_potential)
+    try:
+        out = _core.integrate(
+            problem.potential._spec(problem.dim),
+            (h, co.one_minus_cos, co.sin, co.chi, co.psi, co.phi),
+            (w["omega2"], w["modified_p"], w["modified_q"], [int(b) for b in w["block"]], w["n_blocks"]),
+            q0, p0, n_steps, save_every, form, bool(track_energies), every, callback,
+        )
+    finally:
+        close()
+    if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
+        raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
+    return _solution(problem, method, h, n_steps, out)
+
+
+def _solution(problem, method, h, n_steps, out) -> Solution:
+    names = energy_names(problem.n_blocks)
+    steps = out["steps"].astype(np.int64)
+    t = steps * h
+    energies = xr.Dataset(
+        {name: ("t", out["energies"][:, k]) for k, name in enumerate(names)},
+        coords={"t": t, "step": ("t", steps)},
+        attrs={"method": repr(method), "h": h},
+    )
+    if out["status"] != "completed":
+        warnings.warn(out["message"], RuntimeWarning, stacklevel=3)
+    return Solution(
+        t=t, q=out["q"], p=out["p"], steps=steps, energies=energies,
+        max_deviation=dict(zip(names, out["max_deviation"].tolist(), strict=True)),
+        initial_energies=dict(zip(names, out["initial_energies"].tolist(), strict=True)),
+        h=h, n_steps=int(out["steps_done"]), n_steps_requested=n_steps,
+        status=out["status"], message=out["message"], method=method, problem=problem,
+    )
+
+
+def _resolve_steps(h: float, t_end, n_steps) -> int:
+    if (t_end is None) == (n_steps is None):
+        raise ValueError("t_end, n_steps: give exactly one of them")
+    if n_steps is not None:
+        return _positive_int(n_steps, "n_steps", allow_zero=True)
+    try:
+        t_end = float(t_end)
+    except (TypeError, ValueError):
+        raise TypeError(f"t_end: expected a number, got {type(t_end).__name__}") from None
+    if not np.isfinite(t_end) or t_end <= 0:
+        raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
+    steps = round(t_end / h)
+    if steps < 1:
+        raise ValueError(f"t_end: {t_end} is shorter than half a step h = {h}")
+    return int(steps)
+
+
+def _positive_int(value, name: str, allow_zero: bool = False) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if isinstance(value, float | np.floating) and float(value).is_integer():
+            value = int(value)
+        else:
+            raise TypeError(f"{name}: expected an integer, got {value!r}")
+    if value < (0 if allow_zero else 1):
+        raise ValueError(f"{name}: must be {'>= 0' if allow_zero else '>= 1'}, got {value}")
+    return int(value)
+
+
+def _state(x, name: str, n: int) -> np.ndarray:
+    try:
+        a = np.ascontiguousarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: expected an array of {n} floats") from None
+    if a.shape != (n,):
+        raise ValueError(f"{name}: expected shape ({n},) to match the problem, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        i = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise ValueError(f"{name}: entries must be finite; {name}[{i}] = {a[i]}")
+    return a
+
+
+def _progress(progress, n_steps: int, slow: bool):
+    """A (callback, close) pair: a tqdm bar, the user's callable, or nothing."""
+    if callable(progress) and not isinstance(progress, bool):
+        return progress, lambda: None
+    show = progress if progress is not None else (n_steps >= PROGRESS_BAR_FROM or (slow and n_steps >= 10**5))
+    if not show:
+        return None, lambda: None
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=n_steps, unit="step", unit_scale=True, file=sys.stderr, desc="integrate")
+
+    def update(done: int) -> None:
+        bar.update(done - bar.n)
+
+    return update, bar.close

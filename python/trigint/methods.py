@@ -1,0 +1,417 @@
+"""The methods: trigonometric integrators (trigo) and modified trigonometric integrators
+(trigo-mod), (trigo-alpha) of Cohen, Gauckler, Hairer, Lubich (BIT 2015), §2.2–2.3.
+
+Methods are data: each evaluates its filter functions once per run at the values hω_i and
+returns per-coordinate :class:`Coefficients`; one kernel in the core steps them all.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._filters import FILTERS, evaluate, lookup, one, sinc
+
+#: |χ(hω̃)| below this counts as zero: p_n = (q_{n+1} − q_{n−1})/(2hχ) would lose every digit.
+SINGULAR_CHI = 1e-10
+#: relative tolerance of the symplecticity test ψ = χφ
+SYMPLECTIC_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """Per-coordinate numbers of a method at step size h (all arrays of shape (n,)).
+
+    For slow coordinates (ω = 0) everything is that of Störmer–Verlet: c = χ = ψ = φ = 1.
+    """
+
+    h: float
+    omega: np.ndarray
+    #: hω
+    xi: np.ndarray
+    #: hω̃ (equal to hω for trigonometric methods)
+    xi_tilde: np.ndarray
+    cos: np.ndarray
+    #: 1 − cos(hω̃) = 2 sin²(½hω̃), to full relative precision (the kernels use it)
+    one_minus_cos: np.ndarray
+    sin: np.ndarray
+    chi: np.ndarray
+    psi: np.ndarray
+    phi: np.ndarray
+    #: σ(hω̃) = sinc(hω̃) φ/ψ (paper (sigma)); 0 on slow coordinates
+    sigma: np.ndarray
+    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (mod-energies)
+    modified_p: np.ndarray
+    modified_q: np.ndarray
+
+    @property
+    def symplectic(self) -> bool:
+        """ψ = χ φ at every oscillatory coordinate (paper (symplectic))."""
+        fast = self.omega > 0
+        return bool(np.allclose(self.psi[fast], (self.chi * self.phi)[fast], rtol=SYMPLECTIC_RTOL, atol=0))
+
+
+class Method(ABC):
+    """A method of the form (trigo-mod): its per-coordinate coefficients at (h, ω)."""
+
+    name: str = "method"
+
+    @abstractmethod
+    def _filters(self, xi: np.ndarray, h: float) -> dict:
+        """At the oscillatory values xi = hω > 0: xi_tilde, one_minus_cos, sin, chi, psi, phi."""
+
+    def _check_step(self, xi: np.ndarray, omega: np.ndarray, h: float) -> None:
+        """Method-specific step-size restrictions (raises ValueError)."""
+
+    def coefficients(self, h: float, omega) -> Coefficients:
+        """The per-coordinate coefficients at step size h for frequencies omega.
+
+        Raises ValueError where the method is undefined: χ(hω̃_j) = 0 (for the trigonometric
+        methods hω_j a non-zero multiple of π), or a step-size restriction.
+        """
+        h = _check_h(h)
+        omega = np.asarray(omega, dtype=float).reshape(-1)
+        if omega.size == 0 or not np.all(np.isfinite(omega)) or np.any(omega < 0):
+            raise ValueError("omega: need n >= 1 finite frequencies >= 0")
+        xi = h * omega
+        self._check_step(xi, omega, h)
+        n = omega.size
+        c = {k: np.ones(n) for k in ("chi", "psi", "phi")}
+        c.update({k: np.zeros(n) for k in ("xi_tilde", "one_minus_cos", "sin")})
+        fast = omega > 0
+        if np.any(fast):
+            # Evaluate once per distinct hω, then scatter to the coordinates.
+            distinct, inverse = np.unique(xi[fast], return_inverse=True)
+            values = self._filters(distinct, h)
+            for key in ("xi_tilde", "one_minus_cos", "sin", "chi", "psi", "phi"):
+                c[key][fast] = np.asarray(values[key], dtype=float)[inverse]
+        self._check_chi(c["chi"], xi, omega)
+        sinc_t = sinc(c["xi_tilde"])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sigma = np.where(fast, sinc_t * c["phi"] / c["psi"], 0.0)
+            chi_over_sinc = np.where(fast, c["chi"] / sinc_t, 0.0)
+        if not np.all(np.isfinite(sigma)) or not np.all(np.isfinite(chi_over_sinc)):
+            j = int(np.flatnonzero(~(np.isfinite(sigma) & np.isfinite(chi_over_sinc)))[0])
+            raise ValueError(
+                f"h: at coordinate {j} (h*omega = {xi[j]:.12g}) psi or sinc(h*omega_tilde) vanishes, "
+                "so sigma and the modified oscillatory energy are undefined; choose another h"
+            )
+        omega_tilde = c["xi_tilde"] / h
+        return Coefficients(
+            h=h, omega=omega, xi=xi, sigma=sigma, cos=1.0 - c["one_minus_cos"],
+            modified_p=sigma * chi_over_sinc**2, modified_q=sigma * omega_tilde**2, **c,
+        )
+
+    def _check_chi(self, chi: np.ndarray, xi: np.ndarray, omega: np.ndarray) -> None:
+        bad = np.flatnonzero(np.abs(chi) <= SINGULAR_CHI)
+        if bad.size:
+            j = int(bad[0])
+            r = xi[j] / np.pi
+            raise ValueError(
+                f"h: h*omega[{j}] = {xi[j]:.15g} is {r:.6g}*pi; chi(h*omega_tilde) = {chi[j]:.3g} "
+                f"vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples "
+                f"of pi), so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. "
+                f"Choose h with h*omega[{j}] away from multiples of pi."
+            )
+
+    def is_symplectic(self, h: float, omega) -> bool:
+        """Whether the method is symplectic at step size h for these frequencies."""
+        return self.coefficients(h, omega).symplectic
+
+    def sigma(self, h: float, omega) -> np.ndarray:
+        """σ(hω̃_i) = sinc(hω̃_i) φ/ψ per coordinate (paper (sigma)); 0 on slow coordinates."""
+        return self.coefficients(h, omega).sigma
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r})"
+
+
+class Trigonometric(Method):
+    """Trigonometric integrator (trigo) with filter functions ψ, φ.
+
+        q_{n+1} − 2cos(hΩ) q_n + q_{n−1} = h² Ψ g(Φ q_n),   2h sinc(hΩ) p_n = q_{n+1} − q_{n−1},
+        q_1 = cos(hΩ) q_0 + h sinc(hΩ) p_0 + ½h² Ψ g(Φ q_0)                         (trigo-q1)
+
+    with Ψ = ψ(hΩ), Φ = φ(hΩ). Second order, symmetric (time-reversible); symplectic iff
+    ψ(hω_j) = sinc(hω_j) φ(hω_j) for all j (paper (symplectic)). Cohen, Gauckler, Hairer,
+    Lubich, BIT 55 (2015) §2.2; Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
+    §XIII.2.
+
+    Named filters [GNI §XIII.2.2]: ``"A"``/``"gautschi"`` (ψ = sinc²(ξ/2), φ = 1),
+    ``"B"``/``"deuflhard"`` (ψ = sinc ξ, φ = 1; symplectic), ``"C"``/``"gss"``
+    (ψ = sinc²ξ, φ = sinc ξ; symplectic), ``"D"``/``"hochbruck-lubich"``
+    (ψ = sinc²(ξ/2), φ = sinc ξ (1 + ⅓sin²(ξ/2))), ``"E"``/``"hairer-lubich"`` (ψ = sinc²ξ, φ = 1).
+
+    Parameters
+    ----------
+    filter : str, optional
+        A name above. Give either a name or `psi` and `phi`.
+    psi, phi : callable, optional
+        Even functions of ξ = hω with ψ(0) = φ(0) = 1, evaluated once per run at the hω_j.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> ti.Trigonometric("deuflhard").is_symplectic(0.01, [0.0, 50.0])
+    True
+    >>> ti.Trigonometric("A").is_symplectic(0.03, [0.0, 50.0])
+    False
+    """
+
+    def __init__(self, filter: str | None = None, *, psi: Callable | None = None,
+                 phi: Callable | None = None, name: str | None = None):
+        if filter is not None and (psi is not None or phi is not None):
+            raise ValueError("filter: give a filter name or psi/phi callables, not both")
+        if filter is not None:
+            f = lookup(filter)
+            self.psi, self.phi = f.psi, f.phi
+            self.name = name or f.key
+            self.reference = f.reference
+        else:
+            if psi is None and phi is None:
+                raise ValueError(f"filter: give a name ({', '.join(FILTERS)}) or psi= and phi=")
+            for arg, fn in (("psi", psi), ("phi", phi)):
+                if fn is not None and not callable(fn):
+                    raise TypeError(f"{arg}: expected a callable of xi = h*omega, got {type(fn).__name__}")
+            self.psi, self.phi = psi or one, phi or one
+            for arg, fn in (("psi", self.psi), ("phi", self.phi)):
+                at0 = float(evaluate(fn, np.zeros(1), arg)[0])
+                if abs(at0 - 1.0) > 1e-12:
+                    raise ValueError(f"{arg}: filter functions must satisfy {arg}(0) = 1, got {at0!r}")
+            self.name = name or "custom"
+            self.reference = "user filters"
+
+    def _filters(self, xi: np.ndarray, h: float) -> dict:
+        return dict(xi_tilde=xi, one_minus_cos=2 * np.sin(xi / 2) ** 2, sin=np.sin(xi), chi=sinc(xi),
+                    psi=evaluate(self.psi, xi, "psi"), phi=evaluate(self.phi, xi, "phi"))
+
+
+class ModifiedTrigonometric(Method):
+    """Modified trigonometric integrator (trigo-mod) with modified frequencies ω̃.
+
+        q_{n+1} − 2cos(hΩ̃) q_n + q_{n−1} = h² Ψ̃ g(Φ̃ q_n),   2h χ̃ p_n = q_{n+1} − q_{n−1},
+        q_1 = cos(hΩ̃) q_0 + h χ̃ p_0 + ½h² Ψ̃ g(Φ̃ q_0),
+
+    Ψ̃ = ψ(hΩ̃), Φ̃ = φ(hΩ̃), χ̃ = χ(hΩ̃), ω̃_0 = 0. Symplectic iff ψ = χφ at every hω̃_j.
+    Paper §2.3 (trigo-mod); McLachlan–Stern's choice χ̃ = Ω⁻¹Ω̃ sinc(hΩ̃) is ``chi="mclachlan-stern"``.
+
+    Parameters
+    ----------
+    omega_tilde : callable
+        ξ = hω ↦ ξ̃ = hω̃ (increasing, with 0 ↦ 0).
+    psi, phi : callable, optional
+        Functions of ξ̃; default ψ = sinc, φ = 1.
+    chi : callable or "mclachlan-stern", optional
+        χ(ξ̃); default sinc.
+    omega_tilde_inverse : callable, optional
+        ξ̃ ↦ ξ; found by bisection if omitted.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> m = ti.ModifiedTrigonometric(lambda x: 2 * np.arctan(x / 2), chi="mclachlan-stern")
+    >>> float(m.modified_h_omega(2.0))  # doctest: +ELLIPSIS
+    1.5707963267948...
+    """
+
+    def __init__(self, omega_tilde: Callable, *, psi: Callable | None = None, phi: Callable | None = None,
+                 chi: Callable | str | None = None, omega_tilde_inverse: Callable | None = None,
+                 name: str = "modified"):
+        if not callable(omega_tilde):
+            raise TypeError("omega_tilde: expected a callable xi = h*omega -> h*omega_tilde")
+        self._omega_tilde = omega_tilde
+        self._inverse = omega_tilde_inverse
+        self.psi = psi or sinc
+        self.phi = phi or one
+        if isinstance(chi, str):
+            if chi.lower().replace("_", "-") not in ("mclachlan-stern", "mclachlan", "ms"):
+                raise ValueError(f"chi: unknown name {chi!r}; the named choice is 'mclachlan-stern'")
+            chi = "mclachlan-stern"
+        elif chi is not None and not callable(chi):
+            raise TypeError("chi: expected a callable of h*omega_tilde or 'mclachlan-stern'")
+        self.chi = chi or sinc
+        self.name = name
+
+    def modified_h_omega(self, xi):
+        """hω ↦ hω̃, vectorized."""
+        x = np.asarray(xi, dtype=float)
+        return evaluate(self._omega_tilde, x.reshape(-1), "omega_tilde").reshape(x.shape)
+
+    def h_omega_from_modified(self, xi_tilde):
+        """The inverse map hω̃ ↦ hω, vectorized."""
+        y = np.asarray(xi_tilde, dtype=float)
+        if self._inverse is not None:
+            return evaluate(self._inverse, y.reshape(-1), "omega_tilde_inverse").reshape(y.shape)
+        return _invert_increasing(self.modified_h_omega, y)
+
+    def _filters(self, xi: np.ndarray, h: float) -> dict:
+        xt = self.modified_h_omega(xi)
+        if self.chi == "mclachlan-stern":
+            chi = np.sin(xt) / xi  # χ̃ = Ω⁻¹Ω̃ sinc(hΩ̃) = sin(hω̃)/(hω)
+        else:
+            chi = evaluate(self.chi, xt, "chi")
+        return dict(xi_tilde=xt, one_minus_cos=2 * np.sin(xt / 2) ** 2, sin=np.sin(xt), chi=chi,
+                    psi=evaluate(self.psi, xt, "psi"), phi=evaluate(self.phi, xt, "phi"))
+
+
+class AlphaMethod(ModifiedTrigonometric):
+    """The symplectic α-family (trigo-alpha):
+
+        q_{n+1} − 2q_n + q_{n−1} + h²Ω² q_n + α h²Ω² (q_{n+1} − 2q_n + q_{n−1}) = h² g(q_n),
+        2h p_n = (I + α h²Ω²)(q_{n+1} − q_{n−1}).
+
+    It is (trigo-mod) with sin(½hω̃) = ½hω/√(1 + αh²ω²), hω̃ ∈ [0, π], φ = 1 and
+    ψ = χ = 1 − 4α sin²(½hω̃) = 1/(1 + αh²ω²). Second order, symmetric, symplectic.
+    For α < ¼ it needs hω < 2/√(1 − 4α). α = 0 is Störmer–Verlet, α = ¼ the IMEX method
+    of Zhang–Skeel and Stern–Grinspun. Paper §2.3 and Theorem 3.2.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> round(float(ti.IMEX().modified_h_omega(np.sqrt(12)) / (2 * np.pi / 3)), 12)
+    1.0
+    """
+
+    def __init__(self, alpha: float, name: str | None = None):
+        alpha = float(alpha)
+        if not np.isfinite(alpha):
+            raise ValueError(f"alpha: must be finite, got {alpha}")
+        self.alpha = alpha
+        super().__init__(self._xi_tilde, psi=None, phi=None, chi=None,
+                         omega_tilde_inverse=self._xi_from_tilde, name=name or f"alpha={alpha:g}")
+
+    @property
+    def h_omega_limit(self) -> float:
+        """The bound hω < 2/√(1 − 4α) for α < ¼ (inf for α ≥ ¼)."""
+        return 2.0 / np.sqrt(1.0 - 4.0 * self.alpha) if self.alpha < 0.25 else np.inf
+
+    def _xi_tilde(self, xi):
+        s = 0.5 * xi / np.sqrt(1.0 + self.alpha * xi**2)
+        if np.any(s > 1.0):
+            raise ValueError(self._limit_message(np.max(xi)))
+        return 2.0 * np.arcsin(s)
+
+    def _xi_from_tilde(self, xt):
+        s = np.sin(0.5 * np.asarray(xt, dtype=float))
+        return 2.0 * s / np.sqrt(1.0 - 4.0 * self.alpha * s**2)
+
+    def _limit_message(self, xi_max: float) -> str:
+        return (
+            f"h: the alpha-method with alpha = {self.alpha:g} needs h*omega < 2/sqrt(1 - 4 alpha) = "
+            f"{self.h_omega_limit:.12g} for every frequency, got h*omega = {xi_max:.12g}"
+        )
+
+    def _check_step(self, xi, omega, h):
+        if self.alpha < 0.25 and np.any(xi >= self.h_omega_limit):
+            raise ValueError(self._limit_message(float(np.max(xi))))
+
+    def _filters(self, xi: np.ndarray, h: float) -> dict:
+        d = 1.0 + self.alpha * xi**2
+        half = 0.5 * xi / np.sqrt(d)  # sin(½hω̃)
+        cos_half = np.sqrt(np.maximum(0.0, 1.0 - half**2))
+        # 1 − cos(hω̃) = ½h²ω²/(1 + αh²ω²), from (trigo-alpha) directly.
+        return dict(xi_tilde=2.0 * np.arcsin(half), one_minus_cos=0.5 * xi**2 / d,
+                    sin=2.0 * half * cos_half, chi=1.0 / d, psi=1.0 / d, phi=np.ones_like(xi))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(alpha={self.alpha!r})"
+
+
+class StormerVerlet(AlphaMethod):
+    """Störmer–Verlet, the α-method with α = 0: sin(½hω̃) = ½hω, stable for hω < 2.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> ti.StormerVerlet().h_omega_limit
+    2.0
+    """
+
+    def __init__(self):
+        super().__init__(0.0, name="stormer-verlet")
+
+    def __repr__(self) -> str:
+        return "StormerVerlet()"
+
+
+class IMEX(AlphaMethod):
+    """The IMEX method of Zhang–Skeel and Stern–Grinspun, the α-method with α = ¼:
+    tan(½hω̃) = ½hω, no step-size restriction; H*_ω̃ = Σ_j (ω̃_j/ω_j) I_j (paper §3.2).
+
+    One-step form: p⁺ = p_n + ½h g(q_n); (I + ¼h²Ω²) q_{n+1} = (I − ¼h²Ω²) q_n + h p⁺;
+    p_{n+1} = p⁺ − ½hΩ²(q_n + q_{n+1}) + ½h g(q_{n+1}).
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> round(float(ti.IMEX().modified_h_omega(2.0)), 12)  # π/2
+    1.570796326795
+    """
+
+    def __init__(self):
+        super().__init__(0.25, name="imex")
+
+    def __repr__(self) -> str:
+        return "IMEX()"
+
+
+def _check_h(h) -> float:
+    if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
+        raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
+    h = float(h)
+    if not np.isfinite(h) or h <= 0:
+        raise ValueError(f"h: the step size must be finite and > 0, got {h}")
+    return h
+
+
+def _invert_increasing(f: Callable, y: np.ndarray) -> np.ndarray:
+    """Solves f(x) = y for x ≥ 0 by bisection, f increasing with f(0) = 0."""
+    flat = y.reshape(-1)
+    lo = np.zeros_like(flat)
+    hi = np.maximum(flat, 1.0)
+    for _ in range(200):  # bracket
+        grow = f(hi) < flat
+        if not np.any(grow):
+            break
+        hi = np.where(grow, 2 * hi, hi)
+    else:
+        raise ValueError("xi_tilde: outside the range of omega_tilde")
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        below = f(mid) < flat
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        if np.all(hi - lo <= 4 * np.finfo(float).eps * np.maximum(hi, 1e-300)):
+            break
+    return (0.5 * (lo + hi)).reshape(y.shape)
+
+
+#: the methods that are not a filter pair of the trigonometric family, by name
+MODIFIED_METHODS: dict[str, Callable[[], Method]] = {
+    "imex": IMEX,
+    "stormer-verlet": StormerVerlet,
+    "verlet": StormerVerlet,
+}
+
+
+def resolve_method(method: Method | str) -> Method:
+    """A method object from itself or a name ("A"–"E", filter aliases, "imex", "stormer-verlet")."""
+    if isinstance(method, Method):
+        return method
+    if isinstance(method, str):
+        key = method.strip().lower().replace("_", "-")
+        if key in MODIFIED_METHODS:
+            return MODIFIED_METHODS[key]()
+        try:
+            return Trigonometric(method)
+        except ValueError:
+            from ._filters import ALIASES
+
+            valid = ", ".join([*FILTERS, *ALIASES, *MODIFIED_METHODS])
+            raise ValueError(f"method: unknown name {method!r}; valid names are {valid}") from None
+    raise TypeError(
+        "method: expected a trigint method (Trigonometric('B'), IMEX(), AlphaMethod(alpha), ...) "
+        f"or its name, got {type(method).__name__}"
+    )

@@ -1,0 +1,78 @@
+"""The problems of the paper's experiments (§4), ready to integrate.
+
+- :func:`fpu`: alternating stiff and soft springs [GNI §I.5] (Experiment 2, Figures 2–4);
+- :func:`experiment1`: one degree of freedom, U(q) = q³ + q⁴ (Figure 1);
+- :func:`experiment3`: two frequencies ω and √2ω, U = 0.01 q₁q₂ (Figure 5).
+
+Each has an ``*_initial`` companion returning the paper's initial values ``(q0, p0)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .potentials import FPUPotential, PolynomialPotential
+from .problem import OscillatoryProblem
+
+
+def _positive(x, name: str) -> float:
+    x = float(x)
+    if not np.isfinite(x) or x <= 0:
+        raise ValueError(f"{name}: must be finite and > 0, got {x}")
+    return x
+
+
+def fpu(m: int = 3, omega: float = 50.0) -> OscillatoryProblem:
+    """FPU chain with m stiff springs of frequency ω, in the variables of GNI §I.5.
+
+    Coordinates x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ): x₀,ᵢ = (q₂ᵢ + q₂ᵢ₋₁)/√2 are slow, the
+    elongations x₁,ᵢ = (q₂ᵢ − q₂ᵢ₋₁)/√2 oscillate with frequency ω. The potential is native.
+
+    >>> import trigint as ti
+    >>> ti.problems.fpu(m=3, omega=50.0).omega.tolist()
+    [0.0, 0.0, 0.0, 50.0, 50.0, 50.0]
+    """
+    pot = FPUPotential(m)
+    omega = _positive(omega, "omega")
+    return OscillatoryProblem(np.r_[np.zeros(pot.m), np.full(pot.m, omega)], pot)
+
+
+def fpu_initial(m: int = 3, omega: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
+    """The standard initial data [GNI §I.5]: x₀,₁ = 1, y₀,₁ = 1, x₁,₁ = 1/ω, y₁,₁ = 1, others 0.
+
+    With ω = 50: H = 2.00120008 and H_ω = 1.
+    """
+    m = FPUPotential(m).m
+    omega = _positive(omega, "omega")
+    q0, p0 = np.zeros(2 * m), np.zeros(2 * m)
+    q0[0], p0[0] = 1.0, 1.0
+    q0[m], p0[m] = 1.0 / omega, 1.0
+    return q0, p0
+
+
+def experiment1(omega: float = 100.0) -> OscillatoryProblem:
+    """Experiment 1: q'' + ω²q = −U'(q) with U(q) = q³ + q⁴, one coordinate of frequency ω."""
+    return OscillatoryProblem([_positive(omega, "omega")], PolynomialPotential([1.0, 1.0], [[3], [4]]))
+
+
+def experiment1_initial(omega: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
+    """q(0) = 0.1/ω, q'(0) = 1."""
+    return np.array([0.1 / _positive(omega, "omega")]), np.array([1.0])
+
+
+def experiment3(omega: float = 200.0) -> OscillatoryProblem:
+    """Experiment 3: coordinates (q₀, q₁, q₂) with frequencies (0, ω, √2ω), U = 0.01 q₁q₂."""
+    omega = _positive(omega, "omega")
+    return OscillatoryProblem([0.0, omega, np.sqrt(2.0) * omega], PolynomialPotential([0.01], [[0, 1, 1]]))
+
+
+def experiment3_initial(omega: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
+    """q(0) = (0, 0.3ε, 0.8ε), q'(0) = (0, 0.6, 0.7) with ε = 1/ω."""
+    eps = 1.0 / _positive(omega, "omega")
+    return np.array([0.0, 0.3 * eps, 0.8 * eps]), np.array([0.0, 0.6, 0.7])
+
+
+def experiment3_step(omega: float = 200.0) -> float:
+    """The paper's step size h = 2π/(ω₁ + ω₂), resonant at k = (1, 1), r = 1."""
+    omega = _positive(omega, "omega")
+    return 2.0 * np.pi / (omega + np.sqrt(2.0) * omega)
