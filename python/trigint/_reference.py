@@ -69,16 +69,25 @@ def one_step(gradient: Callable, h: float, cos, sin, chi, psi, phi, q0, p0, n_st
 
 def alpha_direct(gradient: Callable, h: float, omega, alpha: float, q0, p0, n_steps: int):
     """(trigo-alpha) as written: (I + αh²Ω²)(q_{n+1} − 2q_n + q_{n−1}) + h²Ω² q_n = h² g(q_n),
-    2h p_n = (I + αh²Ω²)(q_{n+1} − q_{n−1}); q_{−1} eliminated with p_0."""
+    2h p_n = (I + αh²Ω²)(q_{n+1} − q_{n−1}); q_{−1} eliminated with p_0.
+
+    Solved for the differences Δ_{n+1} = q_{n+1} − q_n (the recursion's first line reads
+    (I + αh²Ω²)(Δ_{n+1} − Δ_n) = h²(g(q_n) − Ω²q_n)), which avoids the cancellation of the
+    plain three-term form; mathematically it is the same recursion.
+    """
     a = 1 + alpha * h**2 * omega**2
-    g = lambda q: -gradient(q)  # noqa: E731
-    qs = [q0, q0 + h * p0 / a + 0.5 * h**2 * (g(q0) - omega**2 * q0) / a]
+    rhs = lambda q: h**2 * (-gradient(q) - omega**2 * q)  # noqa: E731
+    # n = 0 with Δ_0 = q_0 − q_{−1} = Δ_1 − 2h p_0 / a:  a (2Δ_1 − 2h p_0/a) = rhs(q_0).
+    deltas = [None, h * p0 / a + 0.5 * rhs(q0) / a]
+    qs = [q0, q0 + deltas[1]]
     for n in range(1, n_steps + 1):
-        qs.append(2 * qs[n] - qs[n - 1] + h**2 * (g(qs[n]) - omega**2 * qs[n]) / a)
+        deltas.append(deltas[n] + rhs(qs[n]) / a)
+        qs.append(qs[n] + deltas[n + 1])
     q = np.array(qs)
     p = np.empty((n_steps + 1, q0.size))
     p[0] = p0
-    p[1:] = a * (q[2:] - q[:-2]) / (2 * h)
+    d = np.array(deltas[1:])
+    p[1:] = a * (d[1:] + d[:-1]) / (2 * h)
     return q[:-1], p
 
 

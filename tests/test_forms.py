@@ -1,0 +1,66 @@
+"""The forms of one method agree: one-step vs two-step, (trigo-mod) vs (trigo-alpha), IMEX."""
+
+import numpy as np
+import pytest
+
+import trigint as ti
+from trigint import _reference as ref
+
+H = 1.5 / 50.0  # hω = 1.5: inside every method's stability interval
+
+
+def test_one_step_and_two_step_agree(method, fpu):
+    prob, q0, p0 = fpu
+    a = ti.integrate(prob, method, q0, p0, h=H, n_steps=1000, form="two-step")
+    b = ti.integrate(prob, method, q0, p0, h=H, n_steps=1000, form="one-step")
+    assert np.max(np.abs(a.q - b.q)) < 1e-10
+    assert np.max(np.abs(a.p - b.p)) < 1e-10
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.1, 0.25, 0.4, 1.0])
+def test_alpha_family_equals_direct_recursion(alpha, fpu):
+    prob, q0, p0 = fpu
+    sol = ti.integrate(prob, ti.AlphaMethod(alpha), q0, p0, h=H, n_steps=1000)
+    q, p = ref.alpha_direct(ref.fpu_gradient, H, prob.omega, alpha, q0, p0, 1000)
+    assert np.max(np.abs(sol.q - q)) < 1e-12
+    assert np.max(np.abs(sol.p - p)) < 1e-12
+
+
+# With hω = 6 (h = 0.12) the slow FPU motion amplifies rounding differences faster, so that
+# case runs over a shorter time.
+@pytest.mark.parametrize(("h_omega", "n"), [(1.0, 1000), (2.0, 1000), (np.sqrt(12.0), 1000), (6.0, 200)])
+def test_imex_matches_its_one_step_form(h_omega, n, fpu):
+    prob, q0, p0 = fpu
+    h = h_omega / 50.0
+    sol = ti.integrate(prob, ti.IMEX(), q0, p0, h=h, n_steps=n)
+    q, p = ref.imex_one_step(ref.fpu_gradient, h, prob.omega, q0, p0, n)
+    assert np.max(np.abs(sol.q - q)) < 1e-10
+    assert np.max(np.abs(sol.p - p)) < 1e-10
+
+
+def test_imex_modified_energy_is_weighted_oscillatory_energy(fpu):
+    """Paper §3.2: for α = ¼, H*_ω̃ = Σ_j (ω̃_j/ω_j) I_j."""
+    prob, q0, p0 = fpu
+    h = np.sqrt(12.0) / 50.0
+    imex = ti.IMEX()
+    co = imex.coefficients(h, prob.omega)
+    fast = prob.omega > 0
+    ratio = co.xi_tilde[fast] / co.xi[fast]
+    assert np.allclose(co.modified_p[fast], ratio, rtol=1e-14)
+    assert np.allclose(co.modified_q[fast], ratio * prob.omega[fast] ** 2, rtol=1e-14)
+    assert np.allclose(co.xi_tilde[fast], 2 * np.pi / 3, rtol=1e-14)
+    sol = ti.integrate(prob, imex, q0, p0, h=h, n_steps=500, save_every=50)
+    expected = ratio[0] * sol.energies["oscillatory"]
+    assert np.allclose(sol.energies["modified_oscillatory"], expected, rtol=1e-13)
+    e = ti.energies(prob, sol.q, sol.p, imex, h)
+    assert np.allclose(e["modified_oscillatory"], expected, rtol=1e-13)
+
+
+def test_symplectic_trigonometric_modified_energy_is_oscillatory(fpu):
+    prob, q0, p0 = fpu
+    sol = ti.integrate(prob, "C", q0, p0, h=0.04, n_steps=300, save_every=10)
+    assert np.allclose(sol.energies["modified_oscillatory"], sol.energies["oscillatory"], rtol=1e-14)
+    sol = ti.integrate(prob, "A", q0, p0, h=0.04, n_steps=300, save_every=10)
+    sigma = ti.Trigonometric("A").sigma(0.04, prob.omega)[-1]
+    assert sigma != pytest.approx(1.0, abs=1e-3)
+    assert np.allclose(sol.energies["modified_oscillatory"], sigma * sol.energies["oscillatory"], rtol=1e-13)
