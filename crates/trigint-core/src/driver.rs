@@ -111,8 +111,8 @@ fn run<K: Stepper>(
     spec: &RunSpec,
     progress: &mut dyn FnMut(u64) -> bool,
 ) -> CoreResult<RunOutput> {
-    let mut rec = Recorder::new(layout, spec.track_energies, spec.save_every, spec.n_steps);
-    let finish = |rec: Recorder, status: Status, steps_done: u64, message: String| RunOutput {
+    let mut rec = Recorder::<K::S>::new(layout, spec.track_energies, spec.save_every, spec.n_steps);
+    let finish = |rec: Recorder<K::S>, status: Status, steps_done: u64, message: String| RunOutput {
         status,
         steps_done,
         initial_energies: rec.initial().to_vec(),

@@ -6,6 +6,7 @@
 //! (H*_ω = Σ_i ½(a_i p_i² + b_i q_i²)), then the per-block oscillatory energies I_1 … I_ℓ.
 
 use crate::error::{CoreError, CoreResult};
+use crate::stepper::Storage;
 
 pub const TOTAL: usize = 0;
 pub const OSCILLATORY: usize = 1;
@@ -75,28 +76,24 @@ impl EnergyLayout {
         })
     }
 
-    /// All channels at one state. `blocks` is scratch of length ℓ + 1.
-    #[inline(always)]
-    pub fn evaluate(&self, plain_modified: bool, q: &[f64], p: &[f64], u: f64, blocks: &mut [f64], out: &mut [f64]) {
-        blocks.fill(0.0);
+    /// All channels at one state, straightforwardly (the streaming recorder computes the same
+    /// sums branch-free; this is the plain version for checks).
+    pub fn evaluate(&self, q: &[f64], p: &[f64], u: f64) -> Vec<f64> {
+        let mut blocks = vec![0.0; self.n_blocks + 1];
+        let mut out = vec![0.0; self.n_channels()];
         let mut modified = 0.0;
         for i in 0..q.len() {
             let (qi, pi) = (q[i], p[i]);
             blocks[self.block[i]] += 0.5 * (pi * pi + self.omega2[i] * (qi * qi));
-            if !plain_modified {
-                modified += 0.5 * (self.modified_p[i] * (pi * pi) + self.modified_q[i] * (qi * qi));
-            }
+            modified += 0.5 * (self.modified_p[i] * (pi * pi) + self.modified_q[i] * (qi * qi));
         }
-        let mut oscillatory = 0.0;
-        for (j, &e) in blocks.iter().enumerate().skip(1) {
-            oscillatory += e;
-            out[FIRST_BLOCK + j - 1] = e;
-        }
-        let slow = blocks[0] + u;
-        out[TOTAL] = oscillatory + slow;
+        let oscillatory: f64 = blocks[1..].iter().sum();
+        out[TOTAL] = oscillatory + (blocks[0] + u);
         out[OSCILLATORY] = oscillatory;
-        out[SLOW] = slow;
-        out[MODIFIED] = if plain_modified { oscillatory } else { modified };
+        out[SLOW] = blocks[0] + u;
+        out[MODIFIED] = modified;
+        out[FIRST_BLOCK..].copy_from_slice(&blocks[1..]);
+        out
     }
 }
 
@@ -109,41 +106,73 @@ pub struct Samples {
     pub energies: Vec<f64>,
 }
 
+/// The energy weights in the kernel's storage, with 0/1 masks for the slow and fast
+/// coordinates so that the sums need no branches.
+struct Weights<S> {
+    omega2: S,
+    fast: S,
+    slow: S,
+    modified_p: S,
+    modified_q: S,
+}
+
 /// Streams the energies at every step: max |E(t_n) − E(0)| per channel, and the samples
 /// at steps 0, s, 2s, … and the last step. Memory is O(samples), never O(steps).
-pub struct Recorder<'a> {
+pub struct Recorder<'a, S> {
     layout: &'a EnergyLayout,
+    w: Weights<S>,
     plain_modified: bool,
+    /// ℓ > 1: the per-block channels need their own sums (for ℓ = 1, I_1 = H_ω).
+    several_blocks: bool,
     /// Track the energies at every step; otherwise only at samples (and check finiteness).
     track: bool,
     save_every: u64,
     last_step: u64,
     until_sample: u64,
+    /// The four main channels at the current step, and their running extremes.
+    main: [f64; FIRST_BLOCK],
+    main_high: [f64; FIRST_BLOCK],
+    main_low: [f64; FIRST_BLOCK],
     blocks: Vec<f64>,
-    current: Vec<f64>,
+    blocks_high: Vec<f64>,
+    blocks_low: Vec<f64>,
     initial: Vec<f64>,
-    highest: Vec<f64>,
-    lowest: Vec<f64>,
+    row: Vec<f64>,
     pub samples: Samples,
 }
 
-impl<'a> Recorder<'a> {
+impl<'a, S: Storage> Recorder<'a, S> {
     pub fn new(layout: &'a EnergyLayout, track: bool, save_every: u64, last_step: u64) -> Self {
-        let c = layout.n_channels();
-        let n_samples = (last_step / save_every.max(1) + 2).min(1 << 20) as usize;
         let n = layout.dim();
+        let mask = |slow: bool| -> Vec<f64> {
+            layout.block.iter().map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 }).collect()
+        };
+        let c = layout.n_channels();
+        let l = layout.n_blocks;
+        let n_samples = (last_step / save_every.max(1) + 2).min(1 << 20) as usize;
         Recorder {
             layout,
+            w: Weights {
+                omega2: S::from_slice(&layout.omega2),
+                fast: S::from_slice(&mask(false)),
+                slow: S::from_slice(&mask(true)),
+                modified_p: S::from_slice(&layout.modified_p),
+                modified_q: S::from_slice(&layout.modified_q),
+            },
             plain_modified: layout.modified_is_plain(),
+            several_blocks: l > 1,
             track,
             save_every: save_every.max(1),
             last_step,
             until_sample: 0,
-            blocks: vec![0.0; layout.n_blocks + 1],
-            current: vec![0.0; c],
+            main: [0.0; FIRST_BLOCK],
+            main_high: [f64::NEG_INFINITY; FIRST_BLOCK],
+            main_low: [f64::INFINITY; FIRST_BLOCK],
+            blocks: vec![0.0; l + 1],
+            blocks_high: vec![f64::NEG_INFINITY; l],
+            blocks_low: vec![f64::INFINITY; l],
             initial: vec![f64::NAN; c],
-            highest: vec![f64::NEG_INFINITY; c],
-            lowest: vec![f64::INFINITY; c],
+            row: vec![0.0; c],
             samples: Samples {
                 steps: Vec::with_capacity(n_samples),
                 q: Vec::with_capacity(n_samples * n),
@@ -165,37 +194,104 @@ impl<'a> Recorder<'a> {
         self.until_sample == 0 || n == self.last_step
     }
 
+    /// The four main channels (and the per-block sums when ℓ > 1) at one state, returned by
+    /// value: they stay in registers for the max/min updates (storing them and loading them
+    /// back in another width stalls store forwarding).
+    #[inline(always)]
+    fn evaluate(&mut self, q: &[f64], p: &[f64], u: f64) -> [f64; FIRST_BLOCK] {
+        let w = &mut self.w;
+        let (omega2, fast, slow) = (w.omega2.get(), w.fast.get(), w.slow.get());
+        let (mp, mq) = (w.modified_p.get(), w.modified_q.get());
+        let (mut oscillatory, mut kinetic_slow, mut modified) = (0.0, 0.0, 0.0);
+        for i in 0..q.len() {
+            let (pp, qq) = (p[i] * p[i], q[i] * q[i]);
+            let e = 0.5 * (pp + omega2[i] * qq);
+            oscillatory += fast[i] * e;
+            kinetic_slow += slow[i] * e;
+            if !self.plain_modified {
+                modified += 0.5 * (mp[i] * pp + mq[i] * qq);
+            }
+        }
+        if self.several_blocks {
+            self.block_sums(q, p);
+        }
+        let slow_energy = kinetic_slow + u;
+        [oscillatory + slow_energy, oscillatory, slow_energy, if self.plain_modified { oscillatory } else { modified }]
+    }
+
+    /// I_1 … I_ℓ into `blocks[1..]`, for ℓ > 1.
+    #[inline(never)]
+    fn block_sums(&mut self, q: &[f64], p: &[f64]) {
+        self.blocks.fill(0.0);
+        let omega2 = self.w.omega2.get();
+        for (i, &b) in self.layout.block.iter().enumerate() {
+            self.blocks[b] += 0.5 * (p[i] * p[i] + omega2[i] * (q[i] * q[i]));
+        }
+    }
+
+    /// All channels of the current step in output order.
+    fn current_row(&mut self) {
+        self.row[..FIRST_BLOCK].copy_from_slice(&self.main);
+        if self.several_blocks {
+            self.row[FIRST_BLOCK..].copy_from_slice(&self.blocks[1..]);
+        } else if self.layout.n_blocks == 1 {
+            self.row[FIRST_BLOCK] = self.main[OSCILLATORY];
+        }
+    }
+
     /// Observes the state at step n; returns false if it is not finite (a blow-up).
     #[inline(always)]
     pub fn observe(&mut self, n: u64, q: &[f64], p: &[f64], u: f64) -> bool {
         let sample = self.is_sample(n);
         if self.track || sample {
-            self.layout.evaluate(self.plain_modified, q, p, u, &mut self.blocks, &mut self.current);
-            // A non-finite state makes the total energy non-finite (or U did overflow).
-            if !self.current.iter().all(|e| e.is_finite()) {
+            let main = self.evaluate(q, p, u);
+            // Any non-finite coordinate, momentum or U makes the total non-finite.
+            if !main[TOTAL].is_finite() {
                 return false;
             }
-            if n == 0 {
-                self.initial.copy_from_slice(&self.current);
-            }
+            self.main = main;
             if self.track {
-                for ((hi, lo), &e) in self.highest.iter_mut().zip(self.lowest.iter_mut()).zip(&self.current) {
-                    *hi = hi.max(e);
-                    *lo = lo.min(e);
+                // Whole-array loads and stores, so that every access has the same width.
+                let (mut high, mut low) = (self.main_high, self.main_low);
+                for c in 0..FIRST_BLOCK {
+                    high[c] = if main[c] > high[c] { main[c] } else { high[c] };
+                    low[c] = if main[c] < low[c] { main[c] } else { low[c] };
+                }
+                self.main_high = high;
+                self.main_low = low;
+                if self.several_blocks {
+                    for j in 0..self.blocks_high.len() {
+                        let e = self.blocks[j + 1];
+                        self.blocks_high[j] = self.blocks_high[j].max(e);
+                        self.blocks_low[j] = self.blocks_low[j].min(e);
+                    }
                 }
             }
-        } else if !(q.iter().chain(p).all(|x| x.is_finite())) {
-            return false;
+        } else {
+            // Untracked steps: one sum is non-finite as soon as any coordinate is.
+            let sum: f64 = q.iter().sum();
+            if !sum.is_finite() {
+                return false;
+            }
         }
         if sample {
-            self.samples.steps.push(n);
-            self.samples.q.extend_from_slice(q);
-            self.samples.p.extend_from_slice(p);
-            self.samples.energies.extend_from_slice(&self.current);
-            self.until_sample = self.save_every;
+            self.record_sample(n, q, p);
         }
         self.until_sample -= 1;
         true
+    }
+
+    #[cold]
+    fn record_sample(&mut self, n: u64, q: &[f64], p: &[f64]) {
+        self.current_row();
+        if n == 0 {
+            self.initial.copy_from_slice(&self.row);
+        }
+        self.samples.steps.push(n);
+        self.samples.q.extend_from_slice(q);
+        self.samples.p.extend_from_slice(p);
+        self.samples.energies.extend_from_slice(&self.row);
+        self.until_sample = self.save_every;
     }
 
     /// The energies at step 0.
@@ -210,10 +306,15 @@ impl<'a> Recorder<'a> {
         if !self.track {
             return vec![f64::NAN; self.initial.len()];
         }
-        self.initial
-            .iter()
-            .zip(self.highest.iter().zip(&self.lowest))
-            .map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo))
-            .collect()
+        let mut high = self.main_high.to_vec();
+        let mut low = self.main_low.to_vec();
+        if self.several_blocks {
+            high.extend_from_slice(&self.blocks_high);
+            low.extend_from_slice(&self.blocks_low);
+        } else if self.layout.n_blocks == 1 {
+            high.push(self.main_high[OSCILLATORY]);
+            low.push(self.main_low[OSCILLATORY]);
+        }
+        self.initial.iter().zip(high.iter().zip(&low)).map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo)).collect()
     }
 }

@@ -115,8 +115,10 @@ fn evaluate<P: Potential>(
 /// current step n and moves to n + 1. Both return Ok(false) when the observed state is not
 /// finite.
 pub trait Stepper {
-    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder) -> CoreResult<bool>;
-    fn step(&mut self, rec: &mut Recorder) -> CoreResult<bool>;
+    /// The storage of the state (and of the recorder's weights).
+    type S: Storage;
+    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder<Self::S>) -> CoreResult<bool>;
+    fn step(&mut self, rec: &mut Recorder<Self::S>) -> CoreResult<bool>;
 }
 
 /// The two-step form (trigo-mod): q_{n+1} = 2c q_n − q_{n−1} + h²ψ g(φ q_n),
@@ -153,7 +155,9 @@ impl<'p, P: Potential, S: Storage> TwoStep<'p, P, S> {
 }
 
 impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
-    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder) -> CoreResult<bool> {
+    type S = S;
+
+    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder<S>) -> CoreResult<bool> {
         self.q = S::from_slice(q0);
         self.evaluate_current(true)?;
         if !rec.observe(0, q0, p0, self.u) {
@@ -173,7 +177,7 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
     }
 
     #[inline(always)]
-    fn step(&mut self, rec: &mut Recorder) -> CoreResult<bool> {
+    fn step(&mut self, rec: &mut Recorder<S>) -> CoreResult<bool> {
         let k = &self.k;
         {
             let (q, f, d, p) = (self.q.get(), self.f.get(), self.d.get_mut(), self.p.get_mut());
@@ -233,7 +237,7 @@ impl<'p, P: Potential, S: Storage> OneStep<'p, P, S> {
 
     /// From (q_n, p_n, g_n) to step n + 1.
     #[inline(always)]
-    fn advance(&mut self, rec: &Recorder) -> CoreResult<()> {
+    fn advance(&mut self, rec: &Recorder<S>) -> CoreResult<()> {
         let k = &self.k;
         {
             let (q, p, f, qn) = (self.q.get(), self.p.get(), self.f.get(), self.q_next.get_mut());
@@ -258,7 +262,9 @@ impl<'p, P: Potential, S: Storage> OneStep<'p, P, S> {
 }
 
 impl<P: Potential, S: Storage> Stepper for OneStep<'_, P, S> {
-    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder) -> CoreResult<bool> {
+    type S = S;
+
+    fn start(&mut self, q0: &[f64], p0: &[f64], rec: &mut Recorder<S>) -> CoreResult<bool> {
         self.q = S::from_slice(q0);
         self.p = S::from_slice(p0);
         let k = &self.k;
@@ -271,7 +277,7 @@ impl<P: Potential, S: Storage> Stepper for OneStep<'_, P, S> {
     }
 
     #[inline(always)]
-    fn step(&mut self, rec: &mut Recorder) -> CoreResult<bool> {
+    fn step(&mut self, rec: &mut Recorder<S>) -> CoreResult<bool> {
         if !rec.observe(self.n, self.q.get(), self.p.get(), self.u) {
             return Ok(false);
         }

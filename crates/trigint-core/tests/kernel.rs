@@ -126,20 +126,20 @@ fn fixed_and_vector_storage_give_identical_bits() {
     let co = method_b(0.02, &omega);
     let k = co.kernel();
     let lay = layout(&omega);
-    let run = |kernel: &mut dyn Stepper| {
-        let mut rec = Recorder::new(&lay, true, 7, 500);
-        assert!(kernel.start(&q0, &p0, &mut rec).unwrap());
+    fn run<K: Stepper>(mut kernel: K, lay: &EnergyLayout, q0: &[f64], p0: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut rec = Recorder::<K::S>::new(lay, true, 7, 500);
+        assert!(kernel.start(q0, p0, &mut rec).unwrap());
         for _ in 0..500 {
             assert!(kernel.step(&mut rec).unwrap());
         }
         (rec.samples.q.clone(), rec.max_deviation())
-    };
+    }
     use trigint_core::stepper::{OneStep, Stepper, TwoStep};
-    let a = run(&mut TwoStep::<_, [f64; 6]>::new(&pot, &k));
-    let b = run(&mut TwoStep::<_, Vec<f64>>::new(&pot, &k));
+    let a = run(TwoStep::<_, [f64; 6]>::new(&pot, &k), &lay, &q0, &p0);
+    let b = run(TwoStep::<_, Vec<f64>>::new(&pot, &k), &lay, &q0, &p0);
     assert_eq!(a, b);
-    let c = run(&mut OneStep::<_, [f64; 6]>::new(&pot, &k));
-    let d = run(&mut OneStep::<_, Vec<f64>>::new(&pot, &k));
+    let c = run(OneStep::<_, [f64; 6]>::new(&pot, &k), &lay, &q0, &p0);
+    let d = run(OneStep::<_, Vec<f64>>::new(&pot, &k), &lay, &q0, &p0);
     assert_eq!(c, d);
 }
 

@@ -1,0 +1,44 @@
+# trigint: `make test` and `make reproduce` work on a fresh machine with Python 3.11 and Rust.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+OUT    ?= reproduction
+
+.PHONY: all install test test-rust test-python lint reproduce bench bench-smoke clean
+
+all: test
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+
+# Builds the Rust extension (release profile) and installs the package with its test extras.
+install: $(PY)
+	$(PY) -m pip install --quiet -e '.[test]'
+
+test: install test-rust test-python
+
+test-rust:
+	cargo test --release -p trigint-core
+
+test-python: install
+	$(PY) -m pytest tests --doctest-modules python/trigint -p no:cacheprovider
+	$(PY) examples/fpu_energy.py $(VENV)/example-output
+
+lint: install
+	cargo fmt --all --check
+	cargo clippy --release --workspace --all-targets -- -D warnings
+	$(VENV)/bin/ruff check python tests examples benchmarks
+
+reproduce: install
+	$(VENV)/bin/trigint fpu --out $(OUT)
+	@echo "figures written to $(OUT)/"
+
+bench: install
+	$(PY) benchmarks/run.py
+
+bench-smoke: install
+	$(PY) benchmarks/run.py --smoke
+
+clean:
+	rm -rf $(VENV) target
