@@ -7,9 +7,9 @@ oracles are evaluated in extended precision so that they do not add their own.
 
 import numpy as np
 import pytest
-from conftest import ALL_METHODS
 
 import trigint as ti
+from conftest import ALL_METHODS
 
 LD = np.longdouble
 

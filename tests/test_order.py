@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from conftest import ALL_METHODS
 from scipy.integrate import solve_ivp
 
 import trigint as ti

@@ -8,7 +8,6 @@ from pathlib import Path
 
 
 def _fpu(args) -> int:
-    import numpy as np
 
     import trigint as ti
     from trigint.plotting import plot_deviation, save

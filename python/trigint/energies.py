@@ -60,7 +60,9 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | None = None,
     q = np.asarray(q, dtype=float)
     p = np.asarray(p, dtype=float)
     if q.shape != p.shape or q.ndim not in (1, 2) or q.shape[-1] != problem.dim:
-        raise ValueError(f"q, p: expected equal shapes (n,) or (m, n) with n = {problem.dim}, got {q.shape} and {p.shape}")
+        raise ValueError(
+            f"q, p: expected equal shapes (n,) or (m, n) with n = {problem.dim}, got {q.shape} and {p.shape}"
+        )
     if (method is None) != (h is None):
         raise ValueError("method, h: give both (for the modified oscillatory energy) or neither")
     coefficients = method.coefficients(h, problem.omega) if method is not None else None

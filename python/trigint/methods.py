@@ -63,8 +63,8 @@ class Method(ABC):
     def _filters(self, xi: np.ndarray, h: float) -> dict:
         """At the oscillatory values xi = hω > 0: xi_tilde, one_minus_cos, sin, chi, psi, phi."""
 
-    def _check_step(self, xi: np.ndarray, omega: np.ndarray, h: float) -> None:
-        """Method-specific step-size restrictions (raises ValueError)."""
+    def _check_step(self, xi: np.ndarray, omega: np.ndarray, h: float) -> None:  # noqa: B027
+        """Method-specific step-size restrictions (raises ValueError); none by default."""
 
     def coefficients(self, h: float, omega) -> Coefficients:
         """The per-coordinate coefficients at step size h for frequencies omega.

@@ -40,13 +40,24 @@ impl MethodCoefficients {
     /// Checks lengths, finiteness and χ ≠ 0.
     pub fn validate(&self) -> CoreResult<()> {
         if !(self.h.is_finite() && self.h > 0.0) {
-            return Err(CoreError::invalid("h", format!("must be finite and > 0, got {}", self.h)));
+            return Err(CoreError::invalid(
+                "h",
+                format!("must be finite and > 0, got {}", self.h),
+            ));
         }
         let n = self.dim();
         if n == 0 {
-            return Err(CoreError::invalid("coefficients", "need at least one coordinate"));
+            return Err(CoreError::invalid(
+                "coefficients",
+                "need at least one coordinate",
+            ));
         }
-        for (name, v) in [("sin", &self.sin), ("chi", &self.chi), ("psi", &self.psi), ("phi", &self.phi)] {
+        for (name, v) in [
+            ("sin", &self.sin),
+            ("chi", &self.chi),
+            ("psi", &self.psi),
+            ("phi", &self.phi),
+        ] {
             if v.len() != n {
                 return Err(CoreError::invalid(
                     "coefficients",

@@ -75,10 +75,16 @@ pub fn integrate<P: Potential>(
     let n = coefficients.dim();
     for (name, v) in [("q0", q0), ("p0", p0)] {
         if v.len() != n {
-            return Err(CoreError::invalid(name, format!("has {} entries, the method has {n} coordinates", v.len())));
+            return Err(CoreError::invalid(
+                name,
+                format!("has {} entries, the method has {n} coordinates", v.len()),
+            ));
         }
         if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            return Err(CoreError::invalid(name, format!("entry {i} is not finite ({})", v[i])));
+            return Err(CoreError::invalid(
+                name,
+                format!("entry {i} is not finite ({})", v[i]),
+            ));
         }
     }
     pot.check_dim(n)?;
@@ -112,16 +118,22 @@ fn run<K: Stepper>(
     progress: &mut dyn FnMut(u64) -> bool,
 ) -> CoreResult<RunOutput> {
     let mut rec = Recorder::<K::S>::new(layout, spec.track_energies, spec.save_every, spec.n_steps);
-    let finish = |rec: Recorder<K::S>, status: Status, steps_done: u64, message: String| RunOutput {
-        status,
-        steps_done,
-        initial_energies: rec.initial().to_vec(),
-        max_deviation: rec.max_deviation(),
-        samples: rec.samples,
-        message,
-    };
+    let finish =
+        |rec: Recorder<K::S>, status: Status, steps_done: u64, message: String| RunOutput {
+            status,
+            steps_done,
+            initial_energies: rec.initial().to_vec(),
+            max_deviation: rec.max_deviation(),
+            samples: rec.samples,
+            message,
+        };
     if !kernel.start(q0, p0, &mut rec)? {
-        return Ok(finish(rec, Status::BlowUp, 0, "the initial state is not finite".into()));
+        return Ok(finish(
+            rec,
+            Status::BlowUp,
+            0,
+            "the initial state is not finite".into(),
+        ));
     }
     let chunk = spec.progress_every.max(1);
     let mut done = 0u64; // the last observed step
@@ -138,10 +150,17 @@ fn run<K: Stepper>(
             done += 1;
         }
         if !progress(done) {
-            let message = format!("interrupted after step {done} of {}; kept the samples up to there", spec.n_steps);
+            let message = format!(
+                "interrupted after step {done} of {}; kept the samples up to there",
+                spec.n_steps
+            );
             return Ok(finish(rec, Status::Interrupted, done, message));
         }
     }
-    Ok(finish(rec, Status::Completed, done, format!("completed {done} steps")))
+    Ok(finish(
+        rec,
+        Status::Completed,
+        done,
+        format!("completed {done} steps"),
+    ))
 }
-

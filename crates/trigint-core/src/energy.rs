@@ -56,12 +56,18 @@ impl EnergyLayout {
         if let Some(i) = self.block.iter().position(|&b| b > self.n_blocks) {
             return Err(CoreError::invalid(
                 "energy layout",
-                format!("coordinate {i} is in block {} but there are {} blocks", self.block[i], self.n_blocks),
+                format!(
+                    "coordinate {i} is in block {} but there are {} blocks",
+                    self.block[i], self.n_blocks
+                ),
             ));
         }
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !(finite(&self.omega2) && finite(&self.modified_p) && finite(&self.modified_q)) {
-            return Err(CoreError::invalid("energy layout", "weights must be finite"));
+            return Err(CoreError::invalid(
+                "energy layout",
+                "weights must be finite",
+            ));
         }
         Ok(())
     }
@@ -72,7 +78,11 @@ impl EnergyLayout {
         (0..self.dim()).all(|i| {
             let slow = self.block[i] == 0;
             let (a, b) = (self.modified_p[i], self.modified_q[i]);
-            if slow { a == 0.0 && b == 0.0 } else { a == 1.0 && b == self.omega2[i] }
+            if slow {
+                a == 0.0 && b == 0.0
+            } else {
+                a == 1.0 && b == self.omega2[i]
+            }
         })
     }
 
@@ -145,7 +155,11 @@ impl<'a, S: Storage> Recorder<'a, S> {
     pub fn new(layout: &'a EnergyLayout, track: bool, save_every: u64, last_step: u64) -> Self {
         let n = layout.dim();
         let mask = |slow: bool| -> Vec<f64> {
-            layout.block.iter().map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 }).collect()
+            layout
+                .block
+                .iter()
+                .map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 })
+                .collect()
         };
         let c = layout.n_channels();
         let l = layout.n_blocks;
@@ -216,7 +230,16 @@ impl<'a, S: Storage> Recorder<'a, S> {
             self.block_sums(q, p);
         }
         let slow_energy = kinetic_slow + u;
-        [oscillatory + slow_energy, oscillatory, slow_energy, if self.plain_modified { oscillatory } else { modified }]
+        [
+            oscillatory + slow_energy,
+            oscillatory,
+            slow_energy,
+            if self.plain_modified {
+                oscillatory
+            } else {
+                modified
+            },
+        ]
     }
 
     /// I_1 … I_ℓ into `blocks[1..]`, for ℓ > 1.
@@ -315,6 +338,10 @@ impl<'a, S: Storage> Recorder<'a, S> {
             high.push(self.main_high[OSCILLATORY]);
             low.push(self.main_low[OSCILLATORY]);
         }
-        self.initial.iter().zip(high.iter().zip(&low)).map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo)).collect()
+        self.initial
+            .iter()
+            .zip(high.iter().zip(&low))
+            .map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo))
+            .collect()
     }
 }

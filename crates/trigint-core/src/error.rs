@@ -20,7 +20,10 @@ pub enum CoreError {
 
 impl CoreError {
     pub fn invalid(name: &'static str, reason: impl Into<String>) -> Self {
-        CoreError::InvalidArgument { name, reason: reason.into() }
+        CoreError::InvalidArgument {
+            name,
+            reason: reason.into(),
+        }
     }
 }
 

@@ -29,7 +29,10 @@ pub trait Potential: Sync {
         if n == self.dim() {
             Ok(())
         } else {
-            Err(CoreError::DimensionMismatch { expected: self.dim(), got: n })
+            Err(CoreError::DimensionMismatch {
+                expected: self.dim(),
+                got: n,
+            })
         }
     }
 }
@@ -48,7 +51,10 @@ pub struct Fpu {
 impl Fpu {
     pub fn new(m: usize) -> CoreResult<Self> {
         if m == 0 {
-            return Err(CoreError::invalid("m", "the FPU chain needs m >= 1 stiff springs"));
+            return Err(CoreError::invalid(
+                "m",
+                "the FPU chain needs m >= 1 stiff springs",
+            ));
         }
         Ok(Fpu { m })
     }
@@ -132,7 +138,10 @@ impl Polynomial {
     /// matrix in row-major order (T × dim, non-negative integers).
     pub fn new(dim: usize, coefficients: Vec<f64>, exponents: &[i64]) -> CoreResult<Self> {
         if dim == 0 {
-            return Err(CoreError::invalid("dim", "a polynomial needs at least one variable"));
+            return Err(CoreError::invalid(
+                "dim",
+                "a polynomial needs at least one variable",
+            ));
         }
         if exponents.len() != coefficients.len() * dim {
             return Err(CoreError::invalid(
@@ -146,7 +155,10 @@ impl Polynomial {
             ));
         }
         if let Some(c) = coefficients.iter().find(|c| !c.is_finite()) {
-            return Err(CoreError::invalid("coefficients", format!("must be finite, got {c}")));
+            return Err(CoreError::invalid(
+                "coefficients",
+                format!("must be finite, got {c}"),
+            ));
         }
         let mut offsets = vec![0];
         let mut factors = Vec::new();
@@ -164,7 +176,12 @@ impl Polynomial {
             }
             offsets.push(factors.len());
         }
-        Ok(Polynomial { dim, coefficients, offsets, factors })
+        Ok(Polynomial {
+            dim,
+            coefficients,
+            offsets,
+            factors,
+        })
     }
 
     #[inline]

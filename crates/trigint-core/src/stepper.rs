@@ -143,13 +143,31 @@ pub struct TwoStep<'p, P, S> {
 impl<'p, P: Potential, S: Storage> TwoStep<'p, P, S> {
     pub fn new(pot: &'p P, k: &KernelCoefficients) -> Self {
         let z = S::from_slice(&vec![0.0; k.n]);
-        TwoStep { pot, k: Coef::new(k), q: z.clone(), d: z.clone(), p: z.clone(), f: z.clone(), x: z, u: f64::NAN, n: 0 }
+        TwoStep {
+            pot,
+            k: Coef::new(k),
+            q: z.clone(),
+            d: z.clone(),
+            p: z.clone(),
+            f: z.clone(),
+            x: z,
+            u: f64::NAN,
+            n: 0,
+        }
     }
 
     #[inline(always)]
     fn evaluate_current(&mut self, with_value: bool) -> CoreResult<()> {
         let k = &self.k;
-        self.u = evaluate(self.pot, k.phi_is_identity, k.phi.get(), self.q.get(), self.x.get_mut(), self.f.get_mut(), with_value)?;
+        self.u = evaluate(
+            self.pot,
+            k.phi_is_identity,
+            k.phi.get(),
+            self.q.get(),
+            self.x.get_mut(),
+            self.f.get_mut(),
+            with_value,
+        )?;
         Ok(())
     }
 }
@@ -167,7 +185,9 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
         let k = &self.k;
         let (q, f, d) = (self.q.get_mut(), self.f.get(), self.d.get_mut());
         for i in 0..q.len() {
-            d[i] = -(k.one_minus_cos.get()[i] * q[i]) + k.h_chi.get()[i] * p0[i] + k.half_h2_psi.get()[i] * f[i];
+            d[i] = -(k.one_minus_cos.get()[i] * q[i])
+                + k.h_chi.get()[i] * p0[i]
+                + k.half_h2_psi.get()[i] * f[i];
             q[i] += d[i];
         }
         self.n = 1;
@@ -180,7 +200,12 @@ impl<P: Potential, S: Storage> Stepper for TwoStep<'_, P, S> {
     fn step(&mut self, rec: &mut Recorder<S>) -> CoreResult<bool> {
         let k = &self.k;
         {
-            let (q, f, d, p) = (self.q.get(), self.f.get(), self.d.get_mut(), self.p.get_mut());
+            let (q, f, d, p) = (
+                self.q.get(),
+                self.f.get(),
+                self.d.get_mut(),
+                self.p.get_mut(),
+            );
             for i in 0..q.len() {
                 let next = d[i] - k.two_one_minus_cos.get()[i] * q[i] + k.h2_psi.get()[i] * f[i];
                 p[i] = (next + d[i]) * k.inv_2h_chi.get()[i];
@@ -240,15 +265,36 @@ impl<'p, P: Potential, S: Storage> OneStep<'p, P, S> {
     fn advance(&mut self, rec: &Recorder<S>) -> CoreResult<()> {
         let k = &self.k;
         {
-            let (q, p, f, qn) = (self.q.get(), self.p.get(), self.f.get(), self.q_next.get_mut());
+            let (q, p, f, qn) = (
+                self.q.get(),
+                self.p.get(),
+                self.f.get(),
+                self.q_next.get_mut(),
+            );
             for i in 0..q.len() {
-                qn[i] = q[i] + (-(k.one_minus_cos.get()[i] * q[i]) + k.h_chi.get()[i] * p[i] + k.half_h2_psi.get()[i] * f[i]);
+                qn[i] = q[i]
+                    + (-(k.one_minus_cos.get()[i] * q[i])
+                        + k.h_chi.get()[i] * p[i]
+                        + k.half_h2_psi.get()[i] * f[i]);
             }
         }
         let want = rec.needs_potential_at(self.n + 1);
-        self.u = evaluate(self.pot, k.phi_is_identity, k.phi.get(), self.q_next.get(), self.x.get_mut(), self.f_next.get_mut(), want)?;
+        self.u = evaluate(
+            self.pot,
+            k.phi_is_identity,
+            k.phi.get(),
+            self.q_next.get(),
+            self.x.get_mut(),
+            self.f_next.get_mut(),
+            want,
+        )?;
         {
-            let (q, p, f, fnx) = (self.q.get(), self.p.get_mut(), self.f.get(), self.f_next.get());
+            let (q, p, f, fnx) = (
+                self.q.get(),
+                self.p.get_mut(),
+                self.f.get(),
+                self.f_next.get(),
+            );
             for i in 0..q.len() {
                 p[i] += k.p_from_q.get()[i] * q[i] - k.one_minus_cos.get()[i] * p[i]
                     + (k.half_h_psi0.get()[i] * f[i] + k.half_h_psi1.get()[i] * fnx[i]);
@@ -268,7 +314,15 @@ impl<P: Potential, S: Storage> Stepper for OneStep<'_, P, S> {
         self.q = S::from_slice(q0);
         self.p = S::from_slice(p0);
         let k = &self.k;
-        self.u = evaluate(self.pot, k.phi_is_identity, k.phi.get(), self.q.get(), self.x.get_mut(), self.f.get_mut(), true)?;
+        self.u = evaluate(
+            self.pot,
+            k.phi_is_identity,
+            k.phi.get(),
+            self.q.get(),
+            self.x.get_mut(),
+            self.f.get_mut(),
+            true,
+        )?;
         if !rec.observe(0, q0, p0, self.u) {
             return Ok(false);
         }

@@ -4,7 +4,11 @@
 use trigint_core::*;
 
 fn sinc(x: f64) -> f64 {
-    if x == 0.0 { 1.0 } else { x.sin() / x }
+    if x == 0.0 {
+        1.0
+    } else {
+        x.sin() / x
+    }
 }
 
 /// Deuflhard's method B (ψ = sinc, φ = 1) at frequencies `omega`.
@@ -39,7 +43,10 @@ fn layout(omega: &[f64]) -> EnergyLayout {
         .collect();
     EnergyLayout {
         omega2: omega.iter().map(|w| w * w).collect(),
-        modified_p: omega.iter().map(|&w| if w == 0.0 { 0.0 } else { 1.0 }).collect(),
+        modified_p: omega
+            .iter()
+            .map(|&w| if w == 0.0 { 0.0 } else { 1.0 })
+            .collect(),
         modified_q: omega.iter().map(|w| w * w).collect(),
         block,
         n_blocks: distinct.len(),
@@ -47,7 +54,13 @@ fn layout(omega: &[f64]) -> EnergyLayout {
 }
 
 fn spec(n_steps: u64, save_every: u64, form: Form) -> RunSpec {
-    RunSpec { n_steps, save_every, form, track_energies: true, progress_every: 1 << 20 }
+    RunSpec {
+        n_steps,
+        save_every,
+        form,
+        track_energies: true,
+        progress_every: 1 << 20,
+    }
 }
 
 fn fpu_omega(m: usize, w: f64) -> Vec<f64> {
@@ -74,7 +87,16 @@ fn harmonic_oscillator_is_exact() {
     for form in [Form::TwoStep, Form::OneStep] {
         let h = 3.0 / 31.0;
         let n = 10_000;
-        let out = integrate(&zero, &method_b(h, &omega), &layout(&omega), &q0, &p0, &spec(n, n, form), &mut |_| true).unwrap();
+        let out = integrate(
+            &zero,
+            &method_b(h, &omega),
+            &layout(&omega),
+            &q0,
+            &p0,
+            &spec(n, n, form),
+            &mut |_| true,
+        )
+        .unwrap();
         let t = n as f64 * h;
         let last = out.samples.steps.len() - 1;
         assert_eq!(out.samples.steps[last], n);
@@ -83,11 +105,20 @@ fn harmonic_oscillator_is_exact() {
             let (q, p) = if w == 0.0 {
                 (q0[i] + p0[i] * t, p0[i])
             } else {
-                (q0[i] * (w * t).cos() + p0[i] * (w * t).sin() / w, -q0[i] * w * (w * t).sin() + p0[i] * (w * t).cos())
+                (
+                    q0[i] * (w * t).cos() + p0[i] * (w * t).sin() / w,
+                    -q0[i] * w * (w * t).sin() + p0[i] * (w * t).cos(),
+                )
             };
             let scale = (q0[i].abs() + p0[i].abs() / w.max(1.0)).max(1e-300);
-            assert!((out.samples.q[3 * last + i] - q).abs() < 1e-10 * scale.max(q.abs()), "{form:?} q[{i}]");
-            assert!((out.samples.p[3 * last + i] - p).abs() < 1e-10 * (p0[i].abs() + w * q0[i].abs()), "{form:?} p[{i}]");
+            assert!(
+                (out.samples.q[3 * last + i] - q).abs() < 1e-10 * scale.max(q.abs()),
+                "{form:?} q[{i}]"
+            );
+            assert!(
+                (out.samples.p[3 * last + i] - p).abs() < 1e-10 * (p0[i].abs() + w * q0[i].abs()),
+                "{form:?} p[{i}]"
+            );
         }
     }
 }
@@ -101,8 +132,26 @@ fn fpu_forms_agree_and_energy_is_bounded() {
     let h = 2.0 * std::f64::consts::PI / 3.0 / w;
     let co = method_b(h, &omega);
     let lay = layout(&omega);
-    let a = integrate(&pot, &co, &lay, &q0, &p0, &spec(1000, 10, Form::TwoStep), &mut |_| true).unwrap();
-    let b = integrate(&pot, &co, &lay, &q0, &p0, &spec(1000, 10, Form::OneStep), &mut |_| true).unwrap();
+    let a = integrate(
+        &pot,
+        &co,
+        &lay,
+        &q0,
+        &p0,
+        &spec(1000, 10, Form::TwoStep),
+        &mut |_| true,
+    )
+    .unwrap();
+    let b = integrate(
+        &pot,
+        &co,
+        &lay,
+        &q0,
+        &p0,
+        &spec(1000, 10, Form::OneStep),
+        &mut |_| true,
+    )
+    .unwrap();
     assert_eq!(a.samples.steps.len(), 101);
     for (x, y) in a.samples.q.iter().zip(&b.samples.q) {
         assert!((x - y).abs() < 1e-10, "{x} vs {y}");
@@ -126,7 +175,12 @@ fn fixed_and_vector_storage_give_identical_bits() {
     let co = method_b(0.02, &omega);
     let k = co.kernel();
     let lay = layout(&omega);
-    fn run<K: Stepper>(mut kernel: K, lay: &EnergyLayout, q0: &[f64], p0: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    fn run<K: Stepper>(
+        mut kernel: K,
+        lay: &EnergyLayout,
+        q0: &[f64],
+        p0: &[f64],
+    ) -> (Vec<f64>, Vec<f64>) {
         let mut rec = Recorder::<K::S>::new(lay, true, 7, 500);
         assert!(kernel.start(q0, p0, &mut rec).unwrap());
         for _ in 0..500 {
@@ -148,7 +202,16 @@ fn blow_up_stops_and_keeps_samples() {
     // A strongly repulsive quartic potential: U = -q^4 drives the solution to infinity.
     let pot = Polynomial::new(1, vec![-1.0], &[4]).unwrap();
     let co = method_b(0.1, &[1.0]);
-    let out = integrate(&pot, &co, &layout(&[1.0]), &[2.0], &[1.0], &spec(100_000, 5, Form::TwoStep), &mut |_| true).unwrap();
+    let out = integrate(
+        &pot,
+        &co,
+        &layout(&[1.0]),
+        &[2.0],
+        &[1.0],
+        &spec(100_000, 5, Form::TwoStep),
+        &mut |_| true,
+    )
+    .unwrap();
     assert_eq!(out.status, Status::BlowUp);
     assert!(out.steps_done < 1000);
     assert!(out.samples.q.iter().all(|x| x.is_finite()));
@@ -162,10 +225,18 @@ fn interruption_keeps_samples() {
     let mut spec = spec(10_000, 100, Form::TwoStep);
     spec.progress_every = 1000;
     let mut calls = 0;
-    let out = integrate(&pot, &co, &layout(&[0.0, 10.0]), &[1.0, 0.1], &[0.0, 0.0], &spec, &mut |_| {
-        calls += 1;
-        calls < 3
-    })
+    let out = integrate(
+        &pot,
+        &co,
+        &layout(&[0.0, 10.0]),
+        &[1.0, 0.1],
+        &[0.0, 0.0],
+        &spec,
+        &mut |_| {
+            calls += 1;
+            calls < 3
+        },
+    )
     .unwrap();
     assert_eq!(out.status, Status::Interrupted);
     assert_eq!(out.steps_done, 3000);
@@ -179,8 +250,26 @@ fn bad_input_is_an_error_not_a_panic() {
     let mut co = method_b(0.01, &[0.0, 10.0]);
     let s = spec(10, 1, Form::TwoStep);
     assert!(integrate(&pot, &co, &lay, &[1.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
-    assert!(integrate(&pot, &co, &lay, &[f64::NAN, 0.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
-    assert!(integrate(&Fpu::new(2).unwrap(), &co, &lay, &[0.0, 0.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
+    assert!(integrate(
+        &pot,
+        &co,
+        &lay,
+        &[f64::NAN, 0.0],
+        &[0.0, 0.0],
+        &s,
+        &mut |_| true
+    )
+    .is_err());
+    assert!(integrate(
+        &Fpu::new(2).unwrap(),
+        &co,
+        &lay,
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &s,
+        &mut |_| true
+    )
+    .is_err());
     co.chi[1] = 0.0;
     assert!(integrate(&pot, &co, &lay, &[0.0, 0.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
 }

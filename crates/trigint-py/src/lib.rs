@@ -3,7 +3,7 @@
 
 mod potential;
 
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -36,9 +36,33 @@ fn vec1(a: &PyReadonlyArray1<f64>) -> Vec<f64> {
 }
 
 /// A row-major buffer as an (n_rows, n_cols) NumPy array, without copying.
-fn to_2d(py: Python<'_>, data: Vec<f64>, n_rows: usize, n_cols: usize) -> PyResult<Bound<'_, PyArray2<f64>>> {
+fn to_2d(
+    py: Python<'_>,
+    data: Vec<f64>,
+    n_rows: usize,
+    n_cols: usize,
+) -> PyResult<Bound<'_, PyArray2<f64>>> {
     PyArray1::from_vec(py, data).reshape([n_rows, n_cols])
 }
+
+/// (h, 1 − cos, sin, χ, ψ, φ) per coordinate.
+type CoefficientArrays<'py> = (
+    f64,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+);
+
+/// (ω², modified-energy weights of p² and q², block of each coordinate, ℓ).
+type LayoutArrays<'py> = (
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    Vec<usize>,
+    usize,
+);
 
 /// integrate(potential, coefficients, layout, q0, p0, n_steps, save_every, form, track,
 /// progress_every, progress) -> dict
@@ -52,8 +76,8 @@ fn to_2d(py: Python<'_>, data: Vec<f64>, n_rows: usize, n_cols: usize) -> PyResu
 fn integrate<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
-    coefficients: (f64, PyReadonlyArray1<f64>, PyReadonlyArray1<f64>, PyReadonlyArray1<f64>, PyReadonlyArray1<f64>, PyReadonlyArray1<f64>),
-    layout: (PyReadonlyArray1<f64>, PyReadonlyArray1<f64>, PyReadonlyArray1<f64>, Vec<usize>, usize),
+    coefficients: CoefficientArrays<'py>,
+    layout: LayoutArrays<'py>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
     n_steps: u64,
@@ -65,15 +89,38 @@ fn integrate<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let pot = NativePotential::from_spec(potential)?;
     let (h, one_minus_cos, sin, chi, psi, phi) = coefficients;
-    let co = MethodCoefficients { h, one_minus_cos: vec1(&one_minus_cos), sin: vec1(&sin), chi: vec1(&chi), psi: vec1(&psi), phi: vec1(&phi) };
+    let co = MethodCoefficients {
+        h,
+        one_minus_cos: vec1(&one_minus_cos),
+        sin: vec1(&sin),
+        chi: vec1(&chi),
+        psi: vec1(&psi),
+        phi: vec1(&phi),
+    };
     let (omega2, modified_p, modified_q, block, n_blocks) = layout;
-    let lay = EnergyLayout { omega2: vec1(&omega2), modified_p: vec1(&modified_p), modified_q: vec1(&modified_q), block, n_blocks };
+    let lay = EnergyLayout {
+        omega2: vec1(&omega2),
+        modified_p: vec1(&modified_p),
+        modified_q: vec1(&modified_q),
+        block,
+        n_blocks,
+    };
     let form = match form {
         "two-step" => Form::TwoStep,
         "one-step" => Form::OneStep,
-        other => return Err(PyValueError::new_err(format!("form must be 'two-step' or 'one-step', got {other:?}"))),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "form must be 'two-step' or 'one-step', got {other:?}"
+            )))
+        }
     };
-    let spec = RunSpec { n_steps, save_every, form, track_energies: track, progress_every };
+    let spec = RunSpec {
+        n_steps,
+        save_every,
+        form,
+        track_energies: track,
+        progress_every,
+    };
     let (q0, p0) = (vec1(&q0), vec1(&p0));
 
     // The callback re-attaches to the interpreter between chunks: it checks for Ctrl-C and
@@ -98,7 +145,8 @@ fn integrate<'py>(
             }
         })
     };
-    let out: Result<RunOutput, CoreError> = py.detach(|| pot.integrate(&co, &lay, &q0, &p0, &spec, &mut report));
+    let out: Result<RunOutput, CoreError> =
+        py.detach(|| pot.integrate(&co, &lay, &q0, &p0, &spec, &mut report));
     let out = match out {
         Ok(o) => o,
         Err(e) => return Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
@@ -116,14 +164,21 @@ fn integrate<'py>(
     d.set_item("q", to_2d(py, out.samples.q, n_samples, n)?)?;
     d.set_item("p", to_2d(py, out.samples.p, n_samples, n)?)?;
     d.set_item("energies", to_2d(py, out.samples.energies, n_samples, c)?)?;
-    d.set_item("initial_energies", PyArray1::from_vec(py, out.initial_energies))?;
+    d.set_item(
+        "initial_energies",
+        PyArray1::from_vec(py, out.initial_energies),
+    )?;
     d.set_item("max_deviation", PyArray1::from_vec(py, out.max_deviation))?;
     Ok(d)
 }
 
 /// potential_value(potential, x) -> U at each row of x (shape (m, n)).
 #[pyfunction]
-fn potential_value<'py>(py: Python<'py>, potential: &Bound<'py, PyAny>, x: PyReadonlyArray2<f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+fn potential_value<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    x: PyReadonlyArray2<f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let pot = NativePotential::from_spec(potential)?;
     let x = x.as_array();
     let (m, n) = (x.nrows(), x.ncols());
@@ -137,7 +192,11 @@ fn potential_value<'py>(py: Python<'py>, potential: &Bound<'py, PyAny>, x: PyRea
 
 /// potential_force(potential, x) -> g = −∇U at each row of x (shape (m, n)).
 #[pyfunction]
-fn potential_force<'py>(py: Python<'py>, potential: &Bound<'py, PyAny>, x: PyReadonlyArray2<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+fn potential_force<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    x: PyReadonlyArray2<f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let pot = NativePotential::from_spec(potential)?;
     let x = x.as_array();
     let (m, n) = (x.nrows(), x.ncols());

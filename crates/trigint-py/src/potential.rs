@@ -7,7 +7,10 @@ use std::sync::Mutex;
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use trigint_core::{CoreError, CoreResult, EnergyLayout, Fpu, MethodCoefficients, Polynomial, Potential, RunOutput, RunSpec};
+use trigint_core::{
+    CoreError, CoreResult, EnergyLayout, Fpu, MethodCoefficients, Polynomial, Potential, RunOutput,
+    RunSpec,
+};
 
 pub(crate) enum NativePotential {
     Fpu(Fpu),
@@ -21,12 +24,16 @@ impl NativePotential {
         let kind: String = spec.get_item(0)?.extract()?;
         let err = |e: CoreError| PyValueError::new_err(e.to_string());
         match kind.as_str() {
-            "fpu" => Ok(NativePotential::Fpu(Fpu::new(spec.get_item(1)?.extract()?).map_err(err)?)),
+            "fpu" => Ok(NativePotential::Fpu(
+                Fpu::new(spec.get_item(1)?.extract()?).map_err(err)?,
+            )),
             "polynomial" => {
                 let dim: usize = spec.get_item(1)?.extract()?;
                 let coefficients: Vec<f64> = spec.get_item(2)?.extract()?;
                 let exponents: Vec<i64> = spec.get_item(3)?.extract()?;
-                Ok(NativePotential::Polynomial(Polynomial::new(dim, coefficients, &exponents).map_err(err)?))
+                Ok(NativePotential::Polynomial(
+                    Polynomial::new(dim, coefficients, &exponents).map_err(err)?,
+                ))
             }
             "python" => Ok(NativePotential::Python(PythonCallbacks {
                 dim: spec.get_item(1)?.extract()?,
@@ -34,7 +41,9 @@ impl NativePotential {
                 gradient: spec.get_item(3)?.unbind(),
                 error: Mutex::new(None),
             })),
-            other => Err(PyValueError::new_err(format!("unknown potential kind {other:?}"))),
+            other => Err(PyValueError::new_err(format!(
+                "unknown potential kind {other:?}"
+            ))),
         }
     }
 
@@ -57,8 +66,12 @@ impl NativePotential {
     ) -> CoreResult<RunOutput> {
         match self {
             NativePotential::Fpu(p) => trigint_core::integrate(p, co, lay, q0, p0, spec, progress),
-            NativePotential::Polynomial(p) => trigint_core::integrate(p, co, lay, q0, p0, spec, progress),
-            NativePotential::Python(p) => trigint_core::integrate(p, co, lay, q0, p0, spec, progress),
+            NativePotential::Polynomial(p) => {
+                trigint_core::integrate(p, co, lay, q0, p0, spec, progress)
+            }
+            NativePotential::Python(p) => {
+                trigint_core::integrate(p, co, lay, q0, p0, spec, progress)
+            }
         }
     }
 
@@ -113,7 +126,10 @@ impl Potential for PythonCallbacks {
     fn value(&self, x: &[f64]) -> CoreResult<f64> {
         Python::attach(|py| {
             let arr = PyArray1::from_slice(py, x);
-            self.value.call1(py, (arr,)).and_then(|r| r.extract::<f64>(py)).map_err(|e| self.fail(e))
+            self.value
+                .call1(py, (arr,))
+                .and_then(|r| r.extract::<f64>(py))
+                .map_err(|e| self.fail(e))
         })
     }
 
@@ -121,10 +137,11 @@ impl Potential for PythonCallbacks {
         Python::attach(|py| {
             let arr = PyArray1::from_slice(py, x);
             let result = self.gradient.call1(py, (arr,)).map_err(|e| self.fail(e))?;
-            let grad: PyReadonlyArray1<f64> = result
-                .bind(py)
-                .extract()
-                .map_err(|_| self.fail(PyValueError::new_err("the gradient must return a 1-d float array")))?;
+            let grad: PyReadonlyArray1<f64> = result.bind(py).extract().map_err(|_| {
+                self.fail(PyValueError::new_err(
+                    "the gradient must return a 1-d float array",
+                ))
+            })?;
             if grad.len() != f.len() {
                 return Err(self.fail(PyValueError::new_err(format!(
                     "the gradient returned {} values for {} coordinates",

@@ -1,0 +1,122 @@
+"""trigint's benchmark suite: `make bench` (full) and `make bench-smoke` (tiny, for CI).
+
+Measures ns per step of trigint next to hand-written C loops compiled here with
+`cc -O3 -march=native`, and writes benchmarks/results.md. Timings are the best of several
+repetitions; the C loops print their own timing of the stepping loop alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import trigint as ti
+
+HERE = Path(__file__).resolve().parent
+BUILD = HERE / "build"
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def compile_c(name: str, defines: dict[str, int] | None = None) -> Path:
+    """Compiles benchmarks/c/NAME.c with cc -O3 -march=native; returns the executable."""
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise RuntimeError("no C compiler (cc) found; the C baselines need one")
+    BUILD.mkdir(exist_ok=True)
+    flags = [f"-D{k}={v}" for k, v in (defines or {}).items()]
+    exe = BUILD / (name + "".join(f"_{k}{v}" for k, v in (defines or {}).items()))
+    subprocess.run([cc, "-O3", "-march=native", *flags, "-o", str(exe), str(HERE / "c" / f"{name}.c"), "-lm"],
+                   check=True)
+    return exe
+
+
+def run_c(exe: Path, *args, repeat: int = 3) -> float:
+    """Best ns/step reported by a C baseline."""
+    best = float("inf")
+    for _ in range(repeat):
+        out = subprocess.run([str(exe), *map(str, args)], check=True, capture_output=True, text=True).stdout
+        best = min(best, float(out.split()[0]))
+    return best
+
+
+def best_time(fn, repeat: int = 3) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def case_single_trajectory(n_steps: int, repeat: int) -> list[dict]:
+    """(a) FPU m = 3, ω = 50, hω = 2π/3, method B, one trajectory, save_every = n_steps."""
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    h = 2 * np.pi / 3 / 50.0
+    c_ns = run_c(compile_c("fpu_scalar", {"M": 3}), n_steps, repeat=repeat)
+    rows = [dict(case="(a) FPU m=3, B, 1 trajectory", impl="C loop, -O3 -march=native (no energies)",
+                 ns=c_ns, ratio=1.0)]
+    for track, label in ((True, "trigint, streaming max-deviation of every energy"),
+                         (False, "trigint, energies only at samples")):
+        for form in ("two-step", "one-step"):
+            def run(form=form, track=track):
+                ti.integrate(prob, "B", q0, p0, h=h, n_steps=n_steps, save_every=n_steps,
+                             form=form, track_energies=track, progress=False)
+
+            seconds = best_time(run, repeat)
+            ns = seconds / n_steps * 1e9
+            rows.append(dict(case="", impl=f"{label} ({form})", ns=ns, ratio=ns / c_ns))
+    return rows
+
+
+def write_report(rows: list[dict], path: Path, n_steps: int) -> None:
+    lines = [
+        "# trigint benchmarks",
+        "",
+        f"Machine: {cpu_model()}, {platform.system()} {platform.machine()}, "
+        f"Python {platform.python_version()}; {dt.date.today().isoformat()}.",
+        f"Single trajectory: {n_steps:.2g} steps; best of 3 runs.",
+        "",
+        "| case | implementation | ns/step | × C loop |",
+        "|---|---|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['case']} | {r['impl']} | {r['ns']:.2f} | {r['ratio']:.2f} |")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--smoke", action="store_true", help="tiny sizes, to check the suite runs")
+    parser.add_argument("--out", type=Path, default=None, help="results file (default benchmarks/results.md)")
+    args = parser.parse_args(argv)
+    n_steps = 200_000 if args.smoke else 20_000_000
+    repeat = 1 if args.smoke else 3
+    rows = case_single_trajectory(n_steps, repeat)
+    out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
+    out.parent.mkdir(exist_ok=True)
+    write_report(rows, out, n_steps)
+    print(out.read_text())
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
