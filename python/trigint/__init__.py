@@ -12,7 +12,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 'completed'
 """
 
-from . import problems
+from . import problems, resonance
 from ._filters import sinc
 from .energies import energies
 from .integrate import integrate
@@ -48,5 +48,6 @@ __all__ = [
     "energies",
     "integrate",
     "problems",
+    "resonance",
     "sinc",
 ]

@@ -24,6 +24,14 @@ def _fpu(args) -> int:
     return 0 if sol.success else 1
 
 
+def _resonance(args) -> int:
+    from trigint.resonance import analyze
+
+    report = analyze(args.h, args.omega, method=args.method, N_max=args.N_max, delta=args.delta)
+    print(report.to_json() if args.json else report)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="trigint", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -35,6 +43,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, default=3000.0)
     p.add_argument("--out", default="reproduction")
     p.set_defaults(run=_fpu)
+
+    r = sub.add_parser("resonance", help="the paper's non-resonance conditions and assumptions at a step size",
+                       description="Evaluates (eq-nonres), Assumption B, (num-nonres-noamal) and "
+                                   "(num-nonres-altpapier) for step size h and frequencies omega.")
+    r.add_argument("--h", type=float, required=True, help="step size")
+    r.add_argument("--omega", type=float, nargs="+", required=True, help="frequencies (0 = slow)")
+    r.add_argument("--method", default="B", help="A–E, a filter alias, imex or stormer-verlet (default B)")
+    r.add_argument("--N-max", dest="N_max", type=int, default=10, help="largest N to test (default 10)")
+    r.add_argument("--delta", type=float, default=0.25, help="delta of Theorem 3.1 (default 1/4)")
+    r.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    r.set_defaults(run=_resonance)
     return parser
 
 

@@ -286,7 +286,7 @@ class AlphaMethod(ModifiedTrigonometric):
     @property
     def h_omega_limit(self) -> float:
         """The bound hω < 2/√(1 − 4α) for α < ¼ (inf for α ≥ ¼)."""
-        return 2.0 / np.sqrt(1.0 - 4.0 * self.alpha) if self.alpha < 0.25 else np.inf
+        return float(2.0 / np.sqrt(1.0 - 4.0 * self.alpha)) if self.alpha < 0.25 else float("inf")
 
     def _xi_tilde(self, xi):
         s = 0.5 * xi / np.sqrt(1.0 + self.alpha * xi**2)

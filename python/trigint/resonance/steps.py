@@ -1,0 +1,73 @@
+"""Resonant step sizes: where h k·ω = 2πr, to mark on resonance scans (Figure 3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import gcd
+
+import numpy as np
+
+from ._lattice import half_ball
+from .conditions import frequencies
+
+TWO_PI = 2.0 * np.pi
+
+
+@dataclass(frozen=True)
+class ResonantStep:
+    """hω_ref at which h k·ω = 2πr; `order` is ‖k‖₁."""
+
+    h_omega: float
+    k: tuple[int, ...]
+    r: int
+
+    @property
+    def order(self) -> int:
+        return sum(map(abs, self.k))
+
+    def label(self) -> str:
+        """'2π·r/k' for one frequency, else 'k=(…), r'."""
+        if len(self.k) == 1:
+            return f"2π·{self.r}/{self.k[0]}" if self.r != 1 else f"2π/{self.k[0]}"
+        return f"k={self.k}, r={self.r}"
+
+
+def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | None = None) -> list[ResonantStep]:
+    """Every hω_ref in `h_omega_range` with h k·ω = 2πr for some k, ‖k‖₁ ≤ order, r ≥ 1.
+
+    h is measured through hω_ref (default: the smallest non-zero frequency), as on the axes of
+    the paper's Figure 3; for one frequency these are the hω = 2πr/k. Each step size is listed
+    once, with the k of smallest norm (and r, k coprime for one frequency). Sorted by hω_ref.
+
+    Examples
+    --------
+    >>> from trigint.resonance import resonant_step_sizes
+    >>> [s.label() for s in resonant_step_sizes([50.0], (2.0, 2.2), order=6)]
+    ['2π/3']
+    """
+    w = frequencies(omega)
+    lo, hi = (float(x) for x in h_omega_range)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
+        raise ValueError(f"h_omega_range: need 0 <= low < high, got ({lo}, {hi})")
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
+        raise ValueError(f"order: must be an integer >= 1, got {order!r}")
+    ref = float(np.min(w)) if omega_ref is None else float(omega_ref)
+    if not ref > 0:
+        raise ValueError(f"omega_ref: must be > 0, got {ref}")
+    found: dict[float, ResonantStep] = {}
+    for k in half_ball(w.size, int(order)):
+        dot = float(k @ w)
+        if dot <= 0:
+            continue  # h k·ω = 2πr, r ≥ 1, needs k·ω > 0 (−k gives the same h with −r)
+        # hω_ref = 2πr ω_ref/(k·ω) in [lo, hi]
+        r_lo = max(1, int(np.ceil(lo * dot / (TWO_PI * ref) - 1e-12)))
+        r_hi = int(np.floor(hi * dot / (TWO_PI * ref) + 1e-12))
+        for r in range(r_lo, r_hi + 1):
+            if w.size == 1 and gcd(int(k[0]), r) != 1:
+                continue
+            x = TWO_PI * r * ref / dot
+            key = round(x, 12)
+            step = ResonantStep(x, tuple(int(v) for v in k), r)
+            if key not in found or step.order < found[key].order:
+                found[key] = step
+    return sorted(found.values(), key=lambda s: s.h_omega)
