@@ -4,6 +4,7 @@
 //! integrators (Cohen, Gauckler, Hairer, Lubich, BIT 2015). Methods arrive as per-coordinate
 //! coefficient arrays ([`MethodCoefficients`]); one generic kernel steps every method.
 
+pub mod batch;
 pub mod coefficients;
 pub mod driver;
 pub mod energy;
@@ -11,6 +12,7 @@ pub mod error;
 pub mod potential;
 pub mod stepper;
 
+pub use batch::{integrate_batch, BatchSpec, TrajectoryMethod, TrajectoryOutput};
 pub use coefficients::{KernelCoefficients, MethodCoefficients};
 pub use driver::{integrate, Form, RunOutput, RunSpec, Status};
 pub use energy::{EnergyLayout, Recorder, Samples};

@@ -24,6 +24,53 @@ pub trait Potential: Sync {
         self.value(x)
     }
 
+    /// Forces (and, with `values`, U) for `lanes` states stored coordinate-major,
+    /// x[i * lanes + b] for coordinate i of lane b. The default gathers each lane and calls the
+    /// one-state methods, so the numbers are those of [`value_and_force`](Self::value_and_force)
+    /// bit for bit; native potentials override it with loops that vectorize across lanes and
+    /// must keep the same operations in the same order.
+    ///
+    /// `values` always has one entry per lane; it is written only when `with_value`, though a
+    /// potential may fill it anyway when the value comes for free.
+    fn force_lanes(
+        &self,
+        x: &[f64],
+        f: &mut [f64],
+        values: &mut [f64],
+        with_value: bool,
+        lanes: usize,
+    ) -> CoreResult<()> {
+        let n = x.len() / lanes;
+        let (mut xs, mut fs) = (vec![0.0; n], vec![0.0; n]);
+        for b in 0..lanes {
+            for i in 0..n {
+                xs[i] = x[i * lanes + b];
+            }
+            if with_value {
+                values[b] = self.value_and_force(&xs, &mut fs)?;
+            } else {
+                self.force(&xs, &mut fs)?;
+            }
+            for i in 0..n {
+                f[i * lanes + b] = fs[i];
+            }
+        }
+        Ok(())
+    }
+
+    /// U for `lanes` states stored coordinate-major (see [`force_lanes`](Self::force_lanes)).
+    fn value_lanes(&self, x: &[f64], values: &mut [f64], lanes: usize) -> CoreResult<()> {
+        let n = x.len() / lanes;
+        let mut xs = vec![0.0; n];
+        for b in 0..lanes {
+            for i in 0..n {
+                xs[i] = x[i * lanes + b];
+            }
+            values[b] = self.value(&xs)?;
+        }
+        Ok(())
+    }
+
     /// Checks that `n` coordinates fit this potential.
     fn check_dim(&self, n: usize) -> CoreResult<()> {
         if n == self.dim() {
@@ -119,6 +166,114 @@ impl Potential for Fpu {
     #[inline]
     fn value_and_force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<f64> {
         Ok(Self::accumulate_force(x, f))
+    }
+
+    /// The loop of [`Fpu::accumulate_force`] with every scalar turned into a row of lanes:
+    /// the same operations in the same order, so each lane gets the one-state bits.
+    fn force_lanes(
+        &self,
+        x: &[f64],
+        f: &mut [f64],
+        values: &mut [f64],
+        _with_value: bool,
+        lanes: usize,
+    ) -> CoreResult<()> {
+        let m = self.m;
+        let (x0, x1) = x.split_at(m * lanes);
+        let (f0, f1) = f.split_at_mut(m * lanes);
+        let value = &mut values[..lanes];
+        fpu_lanes::first_spring(
+            &x0[..lanes],
+            &x1[..lanes],
+            &mut f0[..lanes],
+            &mut f1[..lanes],
+            value,
+        );
+        for i in 1..m {
+            let (a, c) = (
+                &x0[i * lanes..(i + 1) * lanes],
+                &x1[i * lanes..(i + 1) * lanes],
+            );
+            let (ap, cp) = (
+                &x0[(i - 1) * lanes..i * lanes],
+                &x1[(i - 1) * lanes..i * lanes],
+            );
+            let (f0p, f0i) = f0[(i - 1) * lanes..(i + 1) * lanes].split_at_mut(lanes);
+            let (f1p, f1i) = f1[(i - 1) * lanes..(i + 1) * lanes].split_at_mut(lanes);
+            fpu_lanes::middle_spring(a, c, ap, cp, f0p, f1p, f0i, f1i, value);
+        }
+        let last = (m - 1) * lanes..m * lanes;
+        fpu_lanes::last_spring(
+            &x0[last.clone()],
+            &x1[last.clone()],
+            &mut f0[last.clone()],
+            &mut f1[last],
+            value,
+        );
+        Ok(())
+    }
+}
+
+/// The FPU springs over rows of lanes; every row is its own argument so that the compiler
+/// knows they do not overlap and vectorizes across lanes.
+mod fpu_lanes {
+    #[inline(always)]
+    pub fn first_spring(a: &[f64], c: &[f64], g0: &mut [f64], g1: &mut [f64], value: &mut [f64]) {
+        let l = a.len();
+        let (c, g0, g1, value) = (&c[..l], &mut g0[..l], &mut g1[..l], &mut value[..l]);
+        for b in 0..l {
+            let d = a[b] - c[b];
+            let d3 = d * d * d;
+            value[b] = 0.25 * (d3 * d);
+            g0[b] = -d3;
+            g1[b] = d3;
+        }
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn middle_spring(
+        a: &[f64],
+        c: &[f64],
+        ap: &[f64],
+        cp: &[f64],
+        f0p: &mut [f64],
+        f1p: &mut [f64],
+        f0i: &mut [f64],
+        f1i: &mut [f64],
+        value: &mut [f64],
+    ) {
+        let l = a.len();
+        let (c, ap, cp) = (&c[..l], &ap[..l], &cp[..l]);
+        let (f0p, f1p, f0i, f1i, value) = (
+            &mut f0p[..l],
+            &mut f1p[..l],
+            &mut f0i[..l],
+            &mut f1i[..l],
+            &mut value[..l],
+        );
+        for b in 0..l {
+            let d = a[b] - c[b] - ap[b] - cp[b];
+            let d3 = d * d * d;
+            value[b] += 0.25 * (d3 * d);
+            f0p[b] += d3;
+            f1p[b] += d3;
+            f0i[b] = -d3;
+            f1i[b] = d3;
+        }
+    }
+
+    #[inline(always)]
+    pub fn last_spring(a: &[f64], c: &[f64], g0: &mut [f64], g1: &mut [f64], value: &mut [f64]) {
+        let l = a.len();
+        let (c, g0, g1, value) = (&c[..l], &mut g0[..l], &mut g1[..l], &mut value[..l]);
+        for b in 0..l {
+            let d = a[b] + c[b];
+            let d3 = d * d * d;
+            value[b] += 0.25 * (d3 * d);
+            g0[b] -= d3;
+            g1[b] -= d3;
+        }
     }
 }
 
