@@ -520,6 +520,9 @@ mod sweep {
     }
 }
 
+/// (high, low, blocks high, blocks low) of one lane.
+type Extremes = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// The streaming recorder of [`crate::energy::Recorder`] for a block of lanes, in the same
 /// arithmetic per lane. Running extremes are stored channel-major so that their updates run
 /// across lanes without branches; a lane that blows up has its extremes frozen in a snapshot.
@@ -542,8 +545,8 @@ struct LaneRecorder<'a> {
     low: Vec<f64>,
     blocks_high: Vec<Vec<f64>>,
     blocks_low: Vec<Vec<f64>>,
-    /// (high, low, blocks high, blocks low) of a lane at its blow-up
-    frozen: Vec<Option<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)>>,
+    /// The extremes of a lane at its blow-up
+    frozen: Vec<Option<Extremes>>,
     initial: Vec<Vec<f64>>,
     samples: Vec<Samples>,
     // scratch, one entry per lane
@@ -748,9 +751,9 @@ impl<'a> LaneRecorder<'a> {
                     continue;
                 }
                 let blocks = self.block_sums(q, p, b);
-                for j in 1..blocks.len() {
-                    self.blocks_high[b][j - 1] = self.blocks_high[b][j - 1].max(blocks[j]);
-                    self.blocks_low[b][j - 1] = self.blocks_low[b][j - 1].min(blocks[j]);
+                for (j, &e) in blocks.iter().enumerate().skip(1) {
+                    self.blocks_high[b][j - 1] = self.blocks_high[b][j - 1].max(e);
+                    self.blocks_low[b][j - 1] = self.blocks_low[b][j - 1].min(e);
                 }
             }
         }
