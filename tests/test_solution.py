@@ -84,3 +84,29 @@ def test_python_potential_exception_reaches_the_user():
     prob = ti.OscillatoryProblem([0.0, 5.0], ti.PythonPotential(lambda q: 0.0, gradient))
     with pytest.raises(ZeroDivisionError, match="boom in gradient"):
         ti.integrate(prob, "B", [0.0, 0.0], [1.0, 1.0], h=0.1, n_steps=10)
+
+
+def test_ctrl_c_interrupts_a_long_run_within_a_second(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = tmp_path / "long.py"
+    script.write_text(
+        "import numpy as np, trigint as ti\n"
+        "prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()\n"
+        "print('started', flush=True)\n"
+        "sol = ti.integrate(prob, 'B', q0, p0, h=0.01, n_steps=10**10, save_every=10**6, progress=False)\n"
+        "print(sol.status, sol.n_steps, sol.t.size, flush=True)\n"
+    )
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.time()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    assert time.time() - sent < 1.5
+    status, steps, samples = out.split()
+    assert status == "interrupted" and int(steps) > 0 and int(samples) == int(steps) // 10**6 + 1
+    assert "interrupted after step" in err

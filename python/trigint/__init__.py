@@ -15,6 +15,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 from . import problems, resonance
 from ._filters import sinc
 from .energies import energies
+from .ensemble import ensemble, perturb, scan
 from .integrate import integrate
 from .methods import (
     IMEX,
@@ -46,8 +47,11 @@ __all__ = [
     "StormerVerlet",
     "Trigonometric",
     "energies",
+    "ensemble",
     "integrate",
+    "perturb",
     "problems",
     "resonance",
+    "scan",
     "sinc",
 ]

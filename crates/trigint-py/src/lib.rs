@@ -208,9 +208,193 @@ fn potential_force<'py>(
     }
 }
 
+/// One batch call's inputs, per trajectory in rows: (h, 1 − cos, sin, χ, ψ, φ, H* weights of
+/// p² and q²), the rows being (B, n) arrays and h a (B,) array.
+type BatchCoefficients<'py> = (
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+);
+
+/// integrate_batch(potential, coefficients, layout, q0, p0, n_steps, save_every, track, block,
+/// threads) -> dict
+///
+/// Runs the batched kernel on a thread pool of `threads` (None: all cores) while this thread
+/// watches for Ctrl-C; on Ctrl-C the unfinished trajectories end "interrupted" and the result
+/// says so in `interrupted`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (potential, coefficients, layout, q0, p0, n_steps, save_every, track, block, threads=None))]
+fn integrate_batch<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    coefficients: BatchCoefficients<'py>,
+    layout: LayoutArrays<'py>,
+    q0: PyReadonlyArray2<f64>,
+    p0: PyReadonlyArray2<f64>,
+    n_steps: Vec<u64>,
+    save_every: Option<u64>,
+    track: bool,
+    block: usize,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use trigint_core::{BatchSpec, TrajectoryMethod};
+
+    let pot = NativePotential::from_spec(potential)?;
+    let (h, omc, sin, chi, psi, phi, mp, mq) = coefficients;
+    let rows = |a: &PyReadonlyArray2<f64>| -> Vec<Vec<f64>> {
+        a.as_array()
+            .rows()
+            .into_iter()
+            .map(|r| r.to_vec())
+            .collect()
+    };
+    let h = h.as_array().to_vec();
+    let (omc, sin, chi, psi, phi, mp, mq) = (
+        rows(&omc),
+        rows(&sin),
+        rows(&chi),
+        rows(&psi),
+        rows(&phi),
+        rows(&mp),
+        rows(&mq),
+    );
+    let count = h.len();
+    for (name, r) in [
+        ("one_minus_cos", &omc),
+        ("sin", &sin),
+        ("chi", &chi),
+        ("psi", &psi),
+        ("phi", &phi),
+        ("modified_p", &mp),
+        ("modified_q", &mq),
+    ] {
+        if r.len() != count {
+            return Err(PyValueError::new_err(format!(
+                "{name}: {} rows for {count} trajectories",
+                r.len()
+            )));
+        }
+    }
+    let methods: Vec<TrajectoryMethod> = (0..count)
+        .map(|t| TrajectoryMethod {
+            coefficients: MethodCoefficients {
+                h: h[t],
+                one_minus_cos: omc[t].clone(),
+                sin: sin[t].clone(),
+                chi: chi[t].clone(),
+                psi: psi[t].clone(),
+                phi: phi[t].clone(),
+            },
+            modified_p: mp[t].clone(),
+            modified_q: mq[t].clone(),
+        })
+        .collect();
+    let (omega2, modified_p, modified_q, blocks, n_blocks) = layout;
+    let lay = EnergyLayout {
+        omega2: vec1(&omega2),
+        modified_p: vec1(&modified_p),
+        modified_q: vec1(&modified_q),
+        block: blocks,
+        n_blocks,
+    };
+    let n = lay.dim();
+    let (q0, p0): (Vec<f64>, Vec<f64>) = (
+        q0.as_array().iter().copied().collect(),
+        p0.as_array().iter().copied().collect(),
+    );
+    let spec = BatchSpec {
+        save_every,
+        track_energies: track,
+        block,
+    };
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        builder = builder.num_threads(t);
+    }
+    let pool = builder
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("could not start threads: {e}")))?;
+    let stop = AtomicBool::new(false);
+    let mut interrupted = false;
+    let out = py.detach(|| {
+        std::thread::scope(|scope| {
+            let worker = scope.spawn(|| {
+                pool.install(|| {
+                    pot.integrate_batch(&methods, &lay, &q0, &p0, &n_steps, &spec, &stop)
+                })
+            });
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(20));
+                if !interrupted && Python::attach(|py| py.check_signals().is_err()) {
+                    interrupted = true;
+                    stop.store(true, Ordering::Relaxed);
+                }
+            }
+            worker.join()
+        })
+    });
+    let out = match out {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => return Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
+        Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
+    };
+    let c = lay.n_channels();
+    let d = PyDict::new(py);
+    let statuses: Vec<&str> = out.iter().map(|o| o.status.as_str()).collect();
+    d.set_item("status", statuses)?;
+    d.set_item(
+        "steps_done",
+        PyArray1::from_vec(py, out.iter().map(|o| o.steps_done).collect()),
+    )?;
+    d.set_item(
+        "initial_energies",
+        to_2d(
+            py,
+            out.iter()
+                .flat_map(|o| o.initial_energies.clone())
+                .collect(),
+            count,
+            c,
+        )?,
+    )?;
+    d.set_item(
+        "max_deviation",
+        to_2d(
+            py,
+            out.iter().flat_map(|o| o.max_deviation.clone()).collect(),
+            count,
+            c,
+        )?,
+    )?;
+    d.set_item("interrupted", interrupted)?;
+    if save_every.is_some() {
+        let samples = pyo3::types::PyList::empty(py);
+        for o in out {
+            let s = o.samples;
+            let k = s.steps.len();
+            let item = PyDict::new(py);
+            item.set_item("steps", PyArray1::from_vec(py, s.steps))?;
+            item.set_item("q", to_2d(py, s.q, k, n)?)?;
+            item.set_item("p", to_2d(py, s.p, k, n)?)?;
+            item.set_item("energies", to_2d(py, s.energies, k, c)?)?;
+            samples.append(item)?;
+        }
+        d.set_item("samples", samples)?;
+    }
+    Ok(d)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
+    m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(potential_value, m)?)?;
     m.add_function(wrap_pyfunction!(potential_force, m)?)?;
     Ok(())

@@ -75,6 +75,30 @@ impl NativePotential {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
+    pub fn integrate_batch(
+        &self,
+        methods: &[trigint_core::TrajectoryMethod],
+        lay: &EnergyLayout,
+        q0: &[f64],
+        p0: &[f64],
+        n_steps: &[u64],
+        spec: &trigint_core::BatchSpec,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> CoreResult<Vec<trigint_core::TrajectoryOutput>> {
+        match self {
+            NativePotential::Fpu(p) => {
+                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
+            }
+            NativePotential::Polynomial(p) => {
+                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
+            }
+            NativePotential::Python(p) => {
+                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
+            }
+        }
+    }
+
     fn as_dyn(&self) -> &dyn Potential {
         match self {
             NativePotential::Fpu(p) => p,

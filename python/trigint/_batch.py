@@ -1,0 +1,122 @@
+"""Preparing a batch: broadcasting inputs, per-trajectory coefficients, and the chunk runner
+(a picklable module-level function, so executors and Dask workers can call it)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _core
+from .energies import layout
+from .methods import Method
+from .problem import OscillatoryProblem
+
+
+@dataclass
+class Batch:
+    """Every trajectory's inputs as arrays with a leading trajectory axis."""
+
+    q0: np.ndarray  # (B, n)
+    p0: np.ndarray  # (B, n)
+    h: np.ndarray  # (B,)
+    n_steps: np.ndarray  # (B,) int64
+    one_minus_cos: np.ndarray  # (B, n)
+    sin: np.ndarray
+    chi: np.ndarray
+    psi: np.ndarray
+    phi: np.ndarray
+    modified_p: np.ndarray
+    modified_q: np.ndarray
+
+    def __len__(self) -> int:
+        return self.h.size
+
+    def rows(self, sel: slice) -> dict:
+        """The inputs of trajectories `sel`, as the chunk runner takes them."""
+        return {k: np.ascontiguousarray(getattr(self, k)[sel]) for k in self.__dataclass_fields__}
+
+
+def _batched(x, name: str, n: int) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: expected an array of shape (n,) or (B, n) with n = {n}") from None
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != n:
+        raise ValueError(f"{name}: expected shape ({n},) or (B, {n}), got {np.shape(x)}")
+    if a.shape[0] == 0:
+        raise ValueError(f"{name}: the batch is empty")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        t, i = np.argwhere(bad)[0]
+        raise ValueError(f"{name}: trajectory {t}, entry {i} is not finite ({a[t, i]})")
+    return a
+
+
+def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_steps) -> Batch:
+    """Validates and broadcasts the inputs and evaluates every trajectory's coefficients."""
+    n = problem.dim
+    q0 = _batched(q0, "q0", n)
+    p0 = _batched(p0, "p0", n)
+    h_arr = np.asarray(h, dtype=float).reshape(-1) if np.ndim(h) else np.asarray([h], dtype=float)
+    if np.ndim(h) > 1:
+        raise ValueError(f"h: expected a scalar or shape (B,), got shape {np.shape(h)}")
+    if h_arr.size == 0:
+        raise ValueError("h: the batch is empty")
+    sizes = {name: a.shape[0] for name, a in (("q0", q0), ("p0", p0), ("h", h_arr)) if a.shape[0] != 1}
+    if len(set(sizes.values())) > 1:
+        raise ValueError(f"q0, p0, h: batch sizes differ: {sizes}; give (B, n), (B, n) and (B,) or broadcast")
+    count = max([1, *sizes.values()])
+    q0 = np.broadcast_to(q0, (count, n)).copy()
+    p0 = np.broadcast_to(p0, (count, n)).copy()
+    h_arr = np.broadcast_to(h_arr, (count,)).copy()
+    bad = np.flatnonzero(~np.isfinite(h_arr) | (h_arr <= 0))
+    if bad.size:
+        raise ValueError(f"h: trajectory {bad[0]} has step size {h_arr[bad[0]]}; step sizes must be finite and > 0")
+    if (t_end is None) == (n_steps is None):
+        raise ValueError("t_end, n_steps: give exactly one of them")
+    if n_steps is not None:
+        if isinstance(n_steps, bool) or not isinstance(n_steps, int | np.integer) or n_steps < 1:
+            raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
+        steps = np.full(count, int(n_steps), dtype=np.int64)
+    else:
+        t_end = float(t_end)
+        if not np.isfinite(t_end) or t_end <= 0:
+            raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
+        steps = np.rint(t_end / h_arr).astype(np.int64)
+        short = np.flatnonzero(steps < 1)
+        if short.size:
+            raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
+    fields = ("one_minus_cos", "sin", "chi", "psi", "phi", "modified_p", "modified_q")
+    per = {k: np.empty((count, n)) for k in fields}
+    cache: dict[float, tuple] = {}
+    fast = problem.omega > 0
+    for t, ht in enumerate(h_arr):
+        if ht not in cache:
+            try:
+                co = method.coefficients(float(ht), problem.omega)
+            except ValueError as exc:
+                raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
+            w = layout(problem, co)
+            cache[ht] = (co.one_minus_cos, co.sin, co.chi, co.psi, co.phi,
+                         np.where(fast, w["modified_p"], 0.0), np.where(fast, w["modified_q"], 0.0))
+        for k, v in zip(fields, cache[ht], strict=True):
+            per[k][t] = v
+    return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, **per)
+
+
+def run_chunk(potential_spec: tuple, problem_layout: dict, rows: dict, save_every: int | None, track: bool,
+              threads: int | None = None, block: int = 0) -> dict:
+    """Runs one chunk of trajectories in the core. Module-level and free of local state, so
+    that it can be sent to executors and Dask workers."""
+    out = _core.integrate_batch(
+        potential_spec,
+        (rows["h"], rows["one_minus_cos"], rows["sin"], rows["chi"], rows["psi"], rows["phi"],
+         rows["modified_p"], rows["modified_q"]),
+        (problem_layout["omega2"], np.zeros_like(problem_layout["omega2"]), np.zeros_like(problem_layout["omega2"]),
+         [int(b) for b in problem_layout["block"]], int(problem_layout["n_blocks"])),
+        rows["q0"], rows["p0"], [int(s) for s in rows["n_steps"]], save_every, track, block, threads,
+    )
+    return out

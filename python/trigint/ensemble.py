@@ -1,0 +1,342 @@
+"""Ensembles and sweeps: many trajectories of one problem, on every core and through Dask.
+
+:func:`ensemble` runs a batch (each trajectory with its own q0, p0 and step size) in the
+core's batched kernel; :func:`scan` is the resonance scan of the paper's Figure 3;
+:func:`perturb` builds the perturbed initial values of Figure 2's grey curves. Work is split
+into chunks of trajectories; chunks run locally one after the other (each on all cores), or on
+a ``concurrent.futures`` executor or a ``dask.distributed.Client``; with ``store=`` each
+finished chunk is written to disk at once and a rerun skips it. Every trajectory's numbers are
+those of :func:`trigint.integrate` on it alone, bit for bit, whatever the chunks, threads or
+workers.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+
+import numpy as np
+import xarray as xr
+
+from ._batch import prepare, run_chunk
+from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint
+from .energies import energy_names, layout
+from .methods import Method, resolve_method
+from .problem import OscillatoryProblem
+
+#: show a progress bar by default from this many trajectory-steps on
+PROGRESS_FROM = 10**8
+
+
+def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_end: float | None = None,
+             n_steps: int | None = None, save_every: int | None = None, track_energies: bool = True,
+             threads: int | None = None, client=None, chunk_size: int | None = None, store=None,
+             progress: bool | None = None) -> xr.Dataset:
+    """Integrates many trajectories of one problem; returns an ``xarray.Dataset``.
+
+    Parameters
+    ----------
+    problem, method
+        As for :func:`trigint.integrate` (two-step form).
+    q0, p0 : array of shape (B, n) or (n,)
+        Initial values; (n,) is broadcast to every trajectory.
+    h : float or array of shape (B,)
+        Step sizes; each trajectory has its own coefficients and step count.
+    t_end, n_steps
+        Give one: ``n_steps = round(t_end / h)`` per trajectory, or the same count for all.
+    save_every : int, optional
+        Keep samples every this many steps (and each trajectory's last step); default none.
+    threads : int, optional
+        Threads per chunk (default: all cores). Results do not depend on it.
+    client : dask.distributed.Client or concurrent.futures.Executor, optional
+        Runs the chunks there and gathers them; without one, chunks run here.
+    chunk_size : int, optional
+        Trajectories per chunk (the unit of progress, of distribution and of ``store``).
+    store : str or path, optional
+        A zarr directory: each finished chunk is written as it completes; the same call with the
+        same store skips the finished chunks and returns the identical result. A store written by
+        a different call is refused.
+    progress : bool, optional
+        A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``max_deviation`` (trajectory, energy): max |E(t_n) − E(0)| over every step;
+        ``initial_energies`` (trajectory, energy); ``status`` and ``steps_done`` (trajectory);
+        coordinates ``h``, ``n_steps``; with ``save_every`` also ``q``, ``p`` (trajectory,
+        sample, coordinate), ``energies`` (trajectory, sample, energy) and ``t`` (trajectory,
+        sample), padded with NaN where a trajectory has fewer samples.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
+    >>> Q0, P0 = ti.perturb(q0, p0, [0.0, 7e-16, -7e-16])
+    >>> ds = ti.ensemble(prob, "B", Q0, P0, h=2*np.pi/3/50, t_end=30.0)
+    >>> ds.max_deviation.sel(energy="oscillatory").shape
+    (3,)
+    """
+    if not isinstance(problem, OscillatoryProblem):
+        raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    method = resolve_method(method)
+    batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
+    if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
+                                   or save_every < 1):
+        raise ValueError(f"save_every: must be an integer >= 1 or None, got {save_every!r}")
+    if threads is not None and (not isinstance(threads, int | np.integer) or threads < 1):
+        raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
+    count = len(batch)
+    chunk = _chunk_size(chunk_size, count, client, threads)
+    spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
+    names = energy_names(problem.n_blocks)
+    w = layout(problem, None)
+    spec = problem.potential._spec(problem.dim)
+    args = (spec, dict(omega2=w["omega2"], block=w["block"], n_blocks=w["n_blocks"]))
+    kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
+                  threads=threads)
+    sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
+    results: dict[int, dict] = {}
+    todo = list(range(len(spans)))
+    if sink is not None:
+        done = sink.done()
+        todo = [i for i in todo if not done[i]]
+    show = progress if progress is not None else int(batch.n_steps.sum()) >= PROGRESS_FROM
+    bar = _bar(show, len(spans), len(spans) - len(todo))
+    interrupted = False
+    try:
+        for i, out in _execute(client, todo, spans, batch, args, kwargs):
+            results[i] = out
+            if sink is not None and not out["interrupted"]:
+                sink.write(i, spans[i], _chunk_arrays(out, spans[i], names, save_every, batch))
+            bar.update(1)
+            if out["interrupted"]:
+                interrupted = True
+                break
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+    ds = _assemble(problem, method, batch, names, spans, results, sink, save_every)
+    if interrupted:
+        finished = int((ds.status == "completed").sum())
+        warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
+                      + (f" (in {store})" if store else "") + "; the others have status 'interrupted'",
+                      RuntimeWarning, stacklevel=2)
+    blown = int((ds.status == "blow-up").sum())
+    if blown:
+        warnings.warn(f"{blown} of {count} trajectories blew up (status 'blow-up'); their numbers stop at "
+                      "the last finite step", RuntimeWarning, stacklevel=2)
+    return ds
+
+
+def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, omega_ref: float | None = None,
+         t_end: float, energy: str = "oscillatory", **kwargs) -> xr.DataArray:
+    """The resonance scan of the paper's Figure 3: max |E(t) − E(0)| over 0 ≤ t ≤ t_end as a
+    function of hω_ref, each step size h = hω_ref/ω_ref with its own n_steps = round(t_end/h).
+
+    ``omega_ref`` defaults to the largest frequency of the problem. Other keywords go to
+    :func:`ensemble` (``threads``, ``client``, ``store``, ``progress``, ...).
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
+    >>> s = ti.scan(prob, "B", q0, p0, h_omega=np.linspace(2.05, 2.15, 5), t_end=100.0)
+    >>> s.dims
+    ('h_omega',)
+    """
+    h_omega = np.asarray(h_omega, dtype=float).reshape(-1)
+    if h_omega.size == 0:
+        raise ValueError("h_omega: give at least one value")
+    if np.any(~np.isfinite(h_omega) | (h_omega <= 0)):
+        raise ValueError("h_omega: values must be finite and > 0")
+    ref = float(np.max(problem.omega)) if omega_ref is None else float(omega_ref)
+    if not (np.isfinite(ref) and ref > 0):
+        raise ValueError(f"omega_ref: must be finite and > 0, got {omega_ref}")
+    names = energy_names(problem.n_blocks)
+    if energy not in names:
+        raise ValueError(f"energy: unknown name {energy!r}; valid: {names}")
+    ds = ensemble(problem, method, q0, p0, h=h_omega / ref, t_end=t_end, **kwargs)
+    da = ds.max_deviation.sel(energy=energy).drop_vars("energy")
+    da = da.rename(trajectory="h_omega").assign_coords(h_omega=h_omega, h=("h_omega", ds.h.values),
+                                                       n_steps=("h_omega", ds.n_steps.values),
+                                                       status=("h_omega", ds.status.values))
+    da.name = f"max_deviation_{energy}"
+    da.attrs.update(ds.attrs, energy=energy, t_end=float(t_end), omega_ref=ref)
+    return da
+
+
+def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np.ndarray, np.ndarray]:
+    """Initial values (B, n) with entry `index` of q0 (or p0) moved by each δ in `deltas`
+    (Figure 2's grey curves: x₀,₁(0) = 1 ± δ, |δ| ≤ 7·10⁻¹⁶).
+
+    >>> import trigint as ti
+    >>> Q, P = ti.perturb([1.0, 0.0], [0.0, 1.0], [0.0, 1e-3])
+    >>> Q.tolist()
+    [[1.0, 0.0], [1.001, 0.0]]
+    """
+    q0 = np.asarray(q0, dtype=float).reshape(-1)
+    p0 = np.asarray(p0, dtype=float).reshape(-1)
+    deltas = np.asarray(deltas, dtype=float).reshape(-1)
+    if deltas.size == 0 or not np.all(np.isfinite(deltas)):
+        raise ValueError("deltas: give at least one finite perturbation")
+    if component not in ("q", "p"):
+        raise ValueError(f"component: 'q' or 'p', got {component!r}")
+    if not 0 <= index < q0.size:
+        raise ValueError(f"index: must be in [0, {q0.size}), got {index}")
+    Q = np.repeat(q0[None, :], deltas.size, axis=0)
+    P = np.repeat(p0[None, :], deltas.size, axis=0)
+    target = Q if component == "q" else P
+    target[:, index] += deltas
+    return Q, P
+
+
+def _chunk_size(chunk_size, count: int, client, threads) -> int:
+    if chunk_size is not None:
+        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer) or chunk_size < 1:
+            raise ValueError(f"chunk_size: must be an integer >= 1, got {chunk_size!r}")
+        return int(chunk_size)
+    if client is not None:
+        return max(1, -(-count // 16))
+    cores = threads or os.cpu_count() or 1
+    return max(64 * cores, -(-count // 20))
+
+
+def _execute(client, todo, spans, batch, args, kwargs):
+    """Yields (chunk index, result) as chunks finish: here, on an executor, or on Dask."""
+    if client is None:
+        for i in todo:
+            yield i, run_chunk(*args, batch.rows(spans[i]), **kwargs)
+        return
+    if hasattr(client, "gather") and hasattr(client, "scatter"):  # dask.distributed.Client
+        from distributed import as_completed
+    else:
+        from concurrent.futures import as_completed
+    futures = {client.submit(run_chunk, *args, batch.rows(spans[i]), **kwargs): i for i in todo}
+    try:
+        for future in as_completed(list(futures)):
+            yield futures[future], future.result()
+    finally:
+        for future in futures:
+            future.cancel()
+
+
+def _chunk_arrays(out: dict, span: slice, names, save_every, batch) -> dict:
+    arrays = {
+        "max_deviation": out["max_deviation"],
+        "initial_energies": out["initial_energies"],
+        "steps_done": np.asarray(out["steps_done"], dtype=np.int64),
+        "status": np.array([STATUS_CODES[s] for s in out["status"]], dtype=np.int8),
+    }
+    if save_every is not None:
+        arrays.update(_padded_samples(out["samples"], _max_samples(batch, save_every), batch.q0.shape[1], len(names)))
+    return arrays
+
+
+def _max_samples(batch, save_every) -> int:
+    return int(np.max(batch.n_steps) // save_every + 2)
+
+
+def _padded_samples(samples: list, width: int, n: int, c: int) -> dict:
+    b = len(samples)
+    out = {"step": np.full((b, width), -1, dtype=np.int64), "q": np.full((b, width, n), np.nan),
+           "p": np.full((b, width, n), np.nan), "energies": np.full((b, width, c), np.nan)}
+    for t, s in enumerate(samples):
+        k = s["steps"].size
+        out["step"][t, :k] = s["steps"]
+        out["q"][t, :k] = s["q"]
+        out["p"][t, :k] = s["p"]
+        out["energies"][t, :k] = s["energies"]
+    return out
+
+
+def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans):
+    if store is None:
+        return None
+    count, n, c = len(batch), problem.dim, len(names)
+    shapes = {
+        "max_deviation": ((count, c), "float64", np.nan),
+        "initial_energies": ((count, c), "float64", np.nan),
+        "steps_done": ((count,), "int64", 0),
+        "status": ((count,), "int8", STATUS_CODES["interrupted"]),
+    }
+    if save_every is not None:
+        width = _max_samples(batch, save_every)
+        shapes.update({"step": ((count, width), "int64", -1), "q": ((count, width, n), "float64", np.nan),
+                       "p": ((count, width, n), "float64", np.nan),
+                       "energies": ((count, width, c), "float64", np.nan)})
+    prints = fingerprint({
+        "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
+        "method": repr(method), "coefficients": np.stack([batch.one_minus_cos, batch.sin, batch.chi, batch.psi,
+                                                          batch.phi, batch.modified_p, batch.modified_q]),
+        "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
+        "track_energies": bool(track), "chunk_size": chunk,
+    })
+    return SweepStore(store, prints, shapes, chunk, len(spans))
+
+
+def _potential_key(potential) -> str:
+    spec = potential._spec(potential.dim or 0)
+    if spec[0] == "python":  # callables: by name, the best a fingerprint can do
+        names = (getattr(f, "__qualname__", "?") for f in (potential._value, potential._gradient))
+        return "python:" + ":".join(names)
+    return repr(spec)
+
+
+def _assemble(problem, method, batch, names, spans, results, sink, save_every) -> xr.Dataset:
+    count, n, c = len(batch), problem.dim, len(names)
+    arrays = {
+        "max_deviation": np.full((count, c), np.nan), "initial_energies": np.full((count, c), np.nan),
+        "steps_done": np.zeros(count, dtype=np.int64),
+        "status": np.full(count, STATUS_CODES["interrupted"], dtype=np.int8),
+    }
+    if save_every is not None:
+        width = _max_samples(batch, save_every)
+        arrays.update(_padded_samples([], width, n, c))
+        arrays.update({"step": np.full((count, width), -1, dtype=np.int64), "q": np.full((count, width, n), np.nan),
+                       "p": np.full((count, width, n), np.nan), "energies": np.full((count, width, c), np.nan)})
+    if sink is not None:
+        stored = sink.read(arrays)
+        done = sink.done()
+        for i, span in enumerate(spans):
+            if done[i]:
+                for name in arrays:
+                    arrays[name][span] = stored[name][span]
+    for i, out in results.items():
+        for name, value in _chunk_arrays(out, spans[i], names, save_every, batch).items():
+            arrays[name][spans[i]] = value
+    data = {
+        "max_deviation": (("trajectory", "energy"), arrays["max_deviation"]),
+        "initial_energies": (("trajectory", "energy"), arrays["initial_energies"]),
+        "steps_done": ("trajectory", arrays["steps_done"]),
+        "status": ("trajectory", np.array([STATUS_NAMES[int(s)] for s in arrays["status"]], dtype=object)),
+    }
+    coords = {"trajectory": np.arange(count), "energy": names, "h": ("trajectory", batch.h),
+              "n_steps": ("trajectory", batch.n_steps)}
+    if save_every is not None:
+        step = arrays["step"]
+        data["q"] = (("trajectory", "sample", "coordinate"), arrays["q"])
+        data["p"] = (("trajectory", "sample", "coordinate"), arrays["p"])
+        data["energies"] = (("trajectory", "sample", "energy"), arrays["energies"])
+        data["step"] = (("trajectory", "sample"), step)
+        data["t"] = (("trajectory", "sample"), np.where(step >= 0, step * batch.h[:, None], np.nan))
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(method=repr(method), problem=repr(problem))
+    return ds
+
+
+def _bar(show: bool, total: int, initial: int):
+    if not show:
+        class _Silent:
+            def update(self, k):
+                pass
+
+            def close(self):
+                pass
+
+        return _Silent()
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, unit="chunk", desc="ensemble", file=sys.stderr)

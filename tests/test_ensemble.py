@@ -1,0 +1,203 @@
+"""Ensembles and sweeps: bit-for-bit equal to single runs whatever the threads, chunks, workers
+or batch composition; stores that survive SIGKILL; clear errors."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+import trigint as ti
+
+H = 2 * np.pi / 3 / 50
+
+
+@pytest.fixture(scope="module")
+def sweep_inputs():
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    Q0, P0 = ti.perturb(q0, p0, np.linspace(-7e-16, 7e-16, 7))
+    hs = H * np.linspace(0.97, 1.03, 7)
+    return prob, Q0, P0, hs
+
+
+@pytest.mark.parametrize("method", ["A", "B", "D", "imex"])
+def test_each_trajectory_equals_integrate_bit_for_bit(method, sweep_inputs):
+    prob, Q0, P0, hs = sweep_inputs
+    ds = ti.ensemble(prob, method, Q0, P0, h=hs, t_end=20.0, save_every=40)
+    for t in range(len(hs)):
+        sol = ti.integrate(prob, method, Q0[t], P0[t], h=hs[t], t_end=20.0, save_every=40)
+        k = sol.t.size
+        assert ds.n_steps.values[t] == sol.n_steps_requested
+        assert np.array_equal(ds.q.values[t, :k], sol.q)
+        assert np.array_equal(ds.p.values[t, :k], sol.p)
+        assert np.array_equal(ds.step.values[t, :k], sol.steps)
+        assert np.all(np.isnan(ds.q.values[t, k:]))
+        assert [ds.max_deviation.values[t, j] for j in range(5)] == list(sol.max_deviation.values())
+        assert np.array_equal(ds.energies.values[t, :k], np.column_stack(list(sol.energies.data_vars.values())))
+
+
+def test_threads_chunks_and_composition_do_not_change_bits(sweep_inputs):
+    prob, Q0, P0, hs = sweep_inputs
+    ref = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, threads=1)
+    for kwargs in (dict(threads=2), dict(chunk_size=1), dict(chunk_size=3, threads=2)):
+        other = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, **kwargs)
+        assert np.array_equal(other.max_deviation.values, ref.max_deviation.values), kwargs
+    sub = ti.ensemble(prob, "B", Q0[[5, 1]], P0[[5, 1]], h=hs[[5, 1]], t_end=20.0)
+    assert np.array_equal(sub.max_deviation.values, ref.max_deviation.values[[5, 1]])
+
+
+def test_executor_and_dask_cluster_match_local_run(sweep_inputs):
+    prob, Q0, P0, hs = sweep_inputs
+    ref = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, save_every=100)
+    with ThreadPoolExecutor(2) as pool:
+        viaexec = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, save_every=100, client=pool, chunk_size=2)
+    assert viaexec.identical(ref)
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        viadask = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, save_every=100, client=client, chunk_size=2)
+    assert viadask.identical(ref)
+
+
+def test_store_resumes_and_refuses_other_calls(tmp_path, sweep_inputs):
+    prob, Q0, P0, hs = sweep_inputs
+    path = tmp_path / "sweep.zarr"
+    first = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, chunk_size=2, store=path, save_every=50)
+    assert (path / "zarr.json").exists()
+    calls = []
+
+    def counting_client():
+        class Exec:
+            def submit(self, fn, *a, **k):
+                calls.append(1)
+                from concurrent.futures import Future
+
+                f = Future()
+                f.set_result(fn(*a, **k))
+                return f
+
+        return Exec()
+
+    again = ti.ensemble(prob, "B", Q0, P0, h=hs, t_end=20.0, chunk_size=2, store=path, save_every=50,
+                        client=counting_client())
+    assert calls == []  # every chunk was already there
+    assert again.identical(first)
+    with pytest.raises(ValueError, match=r"different call \(q0 differ\)"):
+        ti.ensemble(prob, "B", Q0 * 1.001, P0, h=hs, t_end=20.0, chunk_size=2, store=path, save_every=50)
+    with pytest.raises(ValueError, match="h, n_steps"):
+        ti.ensemble(prob, "B", Q0, P0, h=hs * 1.1, t_end=20.0, chunk_size=2, store=path, save_every=50)
+
+
+SWEEP_SCRIPT = textwrap.dedent("""
+    import sys, numpy as np, trigint as ti
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    hs = 2 * np.pi / 3 / 50 * np.linspace(0.9, 1.1, 24)
+    ds = ti.ensemble(prob, "B", q0, p0, h=hs, t_end=float(sys.argv[2]), chunk_size=2, threads=1,
+                     store=sys.argv[1], progress=False)
+    np.save(sys.argv[3], ds.max_deviation.values)
+""")
+
+
+def test_sigkill_loses_nothing_written(tmp_path):
+    script = tmp_path / "sweep.py"
+    script.write_text(SWEEP_SCRIPT)
+    store = tmp_path / "killed.zarr"
+    proc = subprocess.Popen([sys.executable, str(script), str(store), "3000", str(tmp_path / "a.npy")])
+    import zarr
+
+    deadline = time.time() + 120
+    done = 0
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        try:
+            done = int(np.sum(zarr.open_group(str(store), mode="r")["done"][:]))
+        except Exception:
+            continue
+        if done >= 2:
+            break
+    assert proc.poll() is None, "the sweep finished before it could be killed; make it longer"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    written = zarr.open_group(str(store), mode="r")
+    finished = np.asarray(written["done"][:])
+    assert 2 <= finished.sum() < finished.size
+    kept = np.asarray(written["max_deviation"][:])[np.repeat(finished, 2)]
+    # Rerun with the same store: only the missing chunks are computed; the result equals a fresh run.
+    subprocess.run([sys.executable, str(script), str(store), "3000", str(tmp_path / "b.npy")], check=True)
+    subprocess.run([sys.executable, str(script), str(tmp_path / "fresh.zarr"), "3000", str(tmp_path / "c.npy")],
+                   check=True)
+    b, c = np.load(tmp_path / "b.npy"), np.load(tmp_path / "c.npy")
+    assert np.array_equal(b, c)
+    assert np.array_equal(b[np.repeat(finished, 2)], kept)
+
+
+def test_ctrl_c_stops_and_keeps_finished_chunks(tmp_path):
+    script = tmp_path / "sweep.py"
+    script.write_text(SWEEP_SCRIPT + "print('statuses', sorted(set(ds.status.values)))\n")
+    store = tmp_path / "interrupted.zarr"
+    proc = subprocess.Popen([sys.executable, str(script), str(store), "3000", str(tmp_path / "a.npy")],
+                            stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    import zarr
+
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        time.sleep(0.05)
+        try:
+            if int(np.sum(zarr.open_group(str(store), mode="r")["done"][:])) >= 1:
+                break
+        except Exception:
+            continue
+    sent = time.time()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert time.time() - sent < 5
+    assert proc.returncode == 0, err
+    assert "interrupted: kept" in err
+    assert "interrupted" in out and "completed" in out
+
+
+def test_blow_up_is_per_trajectory():
+    prob = ti.OscillatoryProblem([1.0], ti.PolynomialPotential([-1.0], [[4]]))
+    with pytest.warns(RuntimeWarning, match="1 of 2 trajectories blew up"):
+        ds = ti.ensemble(prob, "B", [[2.0], [0.01]], [[1.0], [0.0]], h=0.1, n_steps=5000)
+    assert ds.status.values.tolist() == ["blow-up", "completed"]
+    assert ds.steps_done.values[0] < 1000 and ds.steps_done.values[1] == 5000
+
+
+def test_scan_marks_resonances():
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    h_omega = np.linspace(2 * np.pi / 3 - 0.05, 2 * np.pi / 3 + 0.05, 41)
+    s = ti.scan(prob, "B", q0, p0, h_omega=h_omega, t_end=300.0)
+    assert s.dims == ("h_omega",) and s.sizes["h_omega"] == 41
+    assert np.array_equal(s.n_steps.values, np.rint(300.0 / (h_omega / 50)).astype(int))
+    single = ti.integrate(prob, "B", q0, p0, h=h_omega[7] / 50, t_end=300.0)
+    assert float(s[7]) == single.max_deviation["oscillatory"]
+
+
+@pytest.mark.parametrize(("kwargs", "error", "match"), [
+    (dict(q0=np.zeros((3, 6)), p0=np.zeros((2, 6))), ValueError, "batch sizes differ"),
+    (dict(q0=np.zeros((0, 6))), ValueError, "empty"),
+    (dict(q0=np.zeros((2, 5))), ValueError, r"shape \(6,\) or \(B, 6\)"),
+    (dict(h=[0.01, -0.01]), ValueError, "trajectory 1 has step size -0.01"),
+    (dict(h=[0.01, np.nan]), ValueError, "trajectory 1 has step size nan"),
+    (dict(h=[0.01, np.pi / 50]), ValueError, r"trajectory 1 \(h = "),
+    (dict(q0=np.array([[0.0] * 6, [np.inf] + [0.0] * 5])), ValueError, "trajectory 1, entry 0 is not finite"),
+    (dict(chunk_size=0), ValueError, "chunk_size"),
+    (dict(save_every=0), ValueError, "save_every"),
+])
+def test_bad_batches(kwargs, error, match):
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    args = dict(q0=np.zeros(6), p0=np.zeros(6), h=0.01)
+    args.update(kwargs)
+    q0, p0, h = args.pop("q0"), args.pop("p0"), args.pop("h")
+    with pytest.raises(error, match=match):
+        ti.ensemble(prob, "B", q0, p0, h=h, n_steps=10, **args)
