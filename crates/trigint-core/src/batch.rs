@@ -40,6 +40,9 @@ pub struct TrajectoryOutput {
     pub samples: Samples,
 }
 
+/// Untracked steps check that the state is finite every this many steps (and at samples).
+const FINITE_CHECK_EVERY: u64 = 64;
+
 /// Lanes per block: about 256 KiB of state and coefficients, at most 256 lanes.
 pub fn default_block(n: usize) -> usize {
     let bytes_per_lane = 8 * n * 16;
@@ -133,7 +136,12 @@ pub fn integrate_batch<P: Potential>(
     let blocks: Vec<&[usize]> = order.chunks(block).collect();
     let results: Vec<CoreResult<Vec<TrajectoryOutput>>> = blocks
         .par_iter()
-        .map(|ids| Block::new(pot, methods, layout, q0, p0, n_steps, ids, spec).run(stop))
+        .map(|ids| {
+            run_block(
+                Block::new(pot, methods, layout, q0, p0, n_steps, ids, spec),
+                stop,
+            )
+        })
         .collect();
     let mut out: Vec<Option<TrajectoryOutput>> = vec![None; count];
     for (ids, result) in blocks.iter().zip(results) {
@@ -145,6 +153,45 @@ pub fn integrate_batch<P: Potential>(
         .into_iter()
         .map(|r| r.expect("every trajectory belongs to one block"))
         .collect())
+}
+
+/// Runs a block with the widest vectors this CPU has. The three copies of the kernel differ only
+/// in instruction encoding: no fused multiply-add is ever formed (Rust does not contract a·b + c),
+/// so every copy produces the same bits.
+fn run_block<P: Potential>(
+    block: Block<P>,
+    stop: &AtomicBool,
+) -> CoreResult<Vec<TrajectoryOutput>> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { run_block_avx512(block, stop) };
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { run_block_avx2(block, stop) };
+        }
+    }
+    block.run(stop)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn run_block_avx512<P: Potential>(
+    block: Block<P>,
+    stop: &AtomicBool,
+) -> CoreResult<Vec<TrajectoryOutput>> {
+    block.run(stop)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn run_block_avx2<P: Potential>(
+    block: Block<P>,
+    stop: &AtomicBool,
+) -> CoreResult<Vec<TrajectoryOutput>> {
+    block.run(stop)
 }
 
 /// Per-lane numbers in coordinate-major order.
@@ -181,6 +228,8 @@ struct Block<'a, P> {
     modified_q: Vec<f64>,
     fast: Vec<f64>,
     slow: Vec<f64>,
+    /// Every lane has the same coefficients (one step size): rows are broadcast numbers.
+    uniform: bool,
     // state
     q: Vec<f64>,
     p0: Vec<f64>,
@@ -237,7 +286,21 @@ impl<'a, P: Potential> Block<'a, P> {
                 }
             })
         });
+        let first = &methods[ids[0]];
+        let uniform = ids.iter().all(|&t| {
+            let (m, c) = (&methods[t], &methods[t].coefficients);
+            let f = &first.coefficients;
+            c.h == f.h
+                && c.one_minus_cos == f.one_minus_cos
+                && c.sin == f.sin
+                && c.chi == f.chi
+                && c.psi == f.psi
+                && c.phi == f.phi
+                && m.modified_p == first.modified_p
+                && m.modified_q == first.modified_q
+        });
         Block {
+            uniform,
             plain_modified,
             pot,
             layout,
@@ -273,6 +336,7 @@ impl<'a, P: Potential> Block<'a, P> {
     }
 
     /// g(φq) into `f` and, when `with_value`, U(q) into `u` (as the scalar `evaluate`).
+    #[inline(always)]
     fn evaluate(
         &self,
         q: &[f64],
@@ -297,6 +361,7 @@ impl<'a, P: Potential> Block<'a, P> {
         }
     }
 
+    #[inline(always)]
     fn run(mut self, stop: &AtomicBool) -> CoreResult<Vec<TrajectoryOutput>> {
         let (n, lanes) = (self.n, self.lanes);
         let len = n * lanes;
@@ -343,7 +408,14 @@ impl<'a, P: Potential> Block<'a, P> {
             // Samples (and per-block sums) need p_n and q_n after the sweep; other steps fold
             // q_{n+1} = q_n + d_{n+1} into it.
             let full = rec.needs_state(step, first_active);
-            rec.start_step(energies);
+            let check = energies || step % FINITE_CHECK_EVERY == 0;
+            let mode = match (energies, full, check) {
+                (false, _, false) => sweep::Mode::Advance,
+                (false, _, true) => sweep::Mode::AdvanceAndSum,
+                (true, false, _) => sweep::Mode::Track,
+                (true, true, _) => sweep::Mode::Sample,
+            };
+            rec.start_step(energies, check);
             for i in 0..n {
                 let row = i * lanes..(i + 1) * lanes;
                 let (q, d, f, p) = (
@@ -352,29 +424,37 @@ impl<'a, P: Potential> Block<'a, P> {
                     &f[row.clone()],
                     &mut p[row.clone()],
                 );
-                let (a, hp, inv) = (
-                    &self.two_omc[row.clone()],
-                    &self.h2_psi[row.clone()],
-                    &self.inv_2h_chi[row.clone()],
-                );
-                let (mp, mq) = (&self.modified_p[row.clone()], &self.modified_q[row]);
+                let (mp, mq) = (&self.modified_p[row.clone()], &self.modified_q[row.clone()]);
                 let fast_row = self.fast[i] == 1.0;
                 let w2 = self.layout.omega2[i];
-                if !energies {
-                    sweep::advance(q, d, f, a, hp, rec.position_sums());
+                let (osc, kin, modi, sums) = rec.accumulators();
+                let sums = if !energies {
+                    sums
+                } else if fast_row {
+                    osc
                 } else {
-                    let (osc, kin, modi) = rec.accumulators();
-                    let sums = if fast_row { osc } else { kin };
-                    let modified = if self.plain_modified {
-                        None
-                    } else {
-                        Some((mp, mq, modi))
-                    };
-                    if full {
-                        sweep::observe(q, d, f, p, a, hp, inv, w2, sums, modified);
-                    } else {
-                        sweep::observe_and_advance(q, d, f, a, hp, inv, w2, sums, modified);
-                    }
+                    kin
+                };
+                let modified = if self.plain_modified || !energies {
+                    None
+                } else {
+                    Some((mp, mq, modi))
+                };
+                if self.uniform {
+                    let k = i * lanes;
+                    let coef = (
+                        sweep::Same(self.two_omc[k]),
+                        sweep::Same(self.h2_psi[k]),
+                        sweep::Same(self.inv_2h_chi[k]),
+                    );
+                    sweep::row(mode, q, d, f, p, coef, w2, sums, modified);
+                } else {
+                    let coef = (
+                        &self.two_omc[row.clone()],
+                        &self.h2_psi[row.clone()],
+                        &self.inv_2h_chi[row],
+                    );
+                    sweep::row(mode, q, d, f, p, coef, w2, sums, modified);
                 }
             }
             if full {
@@ -383,7 +463,7 @@ impl<'a, P: Potential> Block<'a, P> {
                 for j in 0..len {
                     q[j] += d[j];
                 }
-            } else {
+            } else if check {
                 rec.observe_lanes(step, &u, first_active);
             }
             for &b in &rec.newly_dead {
@@ -412,20 +492,65 @@ impl<'a, P: Potential> Block<'a, P> {
 /// slow kinetic energy on a slow row (the scalar recorder adds 1·e and 0·e: the same sums), and
 /// ½(a p² + b q²) added to H* unless H* is H_ω.
 mod sweep {
-    /// Untracked steps: advance, and Σ q_n per lane for the finiteness check.
+    /// A coefficient row: one number per lane, or one number for every lane of a block whose
+    /// trajectories share their step size (then it stays in a register).
+    pub trait Row: Copy {
+        fn fit(self, len: usize) -> Self;
+        fn at(self, b: usize) -> f64;
+    }
+
+    impl Row for &[f64] {
+        #[inline(always)]
+        fn fit(self, len: usize) -> Self {
+            &self[..len]
+        }
+        #[inline(always)]
+        fn at(self, b: usize) -> f64 {
+            self[b]
+        }
+    }
+
+    /// The same number for every lane.
+    #[derive(Clone, Copy)]
+    pub struct Same(pub f64);
+
+    impl Row for Same {
+        #[inline(always)]
+        fn fit(self, _: usize) -> Self {
+            self
+        }
+        #[inline(always)]
+        fn at(self, _: usize) -> f64 {
+            self.0
+        }
+    }
+
+    /// Untracked steps: advance only.
     #[inline(always)]
-    pub fn advance(
+    pub fn advance<R: Row>(q: &mut [f64], d: &mut [f64], f: &[f64], a: R, hp: R) {
+        let l = q.len();
+        let (d, f, a, hp) = (&mut d[..l], &f[..l], a.fit(l), hp.fit(l));
+        for b in 0..l {
+            let next = d[b] - a.at(b) * q[b] + hp.at(b) * f[b];
+            d[b] = next;
+            q[b] += next;
+        }
+    }
+
+    /// Untracked steps that check finiteness: advance, with Σ q_n per lane.
+    #[inline(always)]
+    pub fn advance_and_sum<R: Row>(
         q: &mut [f64],
         d: &mut [f64],
         f: &[f64],
-        a: &[f64],
-        hp: &[f64],
+        a: R,
+        hp: R,
         sum: &mut [f64],
     ) {
         let l = q.len();
-        let (d, f, a, hp, sum) = (&mut d[..l], &f[..l], &a[..l], &hp[..l], &mut sum[..l]);
+        let (d, f, a, hp, sum) = (&mut d[..l], &f[..l], a.fit(l), hp.fit(l), &mut sum[..l]);
         for b in 0..l {
-            let next = d[b] - a[b] * q[b] + hp[b] * f[b];
+            let next = d[b] - a.at(b) * q[b] + hp.at(b) * f[b];
             sum[b] += q[b];
             d[b] = next;
             q[b] += next;
@@ -435,13 +560,13 @@ mod sweep {
     /// Tracked steps without a sample: energies at (q_n, p_n), then advance.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn observe_and_advance(
+    pub fn observe_and_advance<R: Row>(
         q: &mut [f64],
         d: &mut [f64],
         f: &[f64],
-        a: &[f64],
-        hp: &[f64],
-        inv: &[f64],
+        a: R,
+        hp: R,
+        inv: R,
         w2: f64,
         sums: &mut [f64],
         modified: Option<(&[f64], &[f64], &mut [f64])>,
@@ -450,16 +575,16 @@ mod sweep {
         let (d, f, a, hp, inv, sums) = (
             &mut d[..l],
             &f[..l],
-            &a[..l],
-            &hp[..l],
-            &inv[..l],
+            a.fit(l),
+            hp.fit(l),
+            inv.fit(l),
             &mut sums[..l],
         );
         match modified {
             None => {
                 for b in 0..l {
-                    let next = d[b] - a[b] * q[b] + hp[b] * f[b];
-                    let p = (next + d[b]) * inv[b];
+                    let next = d[b] - a.at(b) * q[b] + hp.at(b) * f[b];
+                    let p = (next + d[b]) * inv.at(b);
                     sums[b] += 0.5 * (p * p + w2 * (q[b] * q[b]));
                     d[b] = next;
                     q[b] += next;
@@ -468,8 +593,8 @@ mod sweep {
             Some((mp, mq, modi)) => {
                 let (mp, mq, modi) = (&mp[..l], &mq[..l], &mut modi[..l]);
                 for b in 0..l {
-                    let next = d[b] - a[b] * q[b] + hp[b] * f[b];
-                    let p = (next + d[b]) * inv[b];
+                    let next = d[b] - a.at(b) * q[b] + hp.at(b) * f[b];
+                    let p = (next + d[b]) * inv.at(b);
                     let (pp, qq) = (p * p, q[b] * q[b]);
                     sums[b] += 0.5 * (pp + w2 * qq);
                     modi[b] += 0.5 * (mp[b] * pp + mq[b] * qq);
@@ -483,14 +608,14 @@ mod sweep {
     /// Sample steps: p_n stored and energies at (q_n, p_n); q is advanced afterwards.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn observe(
+    pub fn observe<R: Row>(
         q: &[f64],
         d: &mut [f64],
         f: &[f64],
         p: &mut [f64],
-        a: &[f64],
-        hp: &[f64],
-        inv: &[f64],
+        a: R,
+        hp: R,
+        inv: R,
         w2: f64,
         sums: &mut [f64],
         modified: Option<(&[f64], &[f64], &mut [f64])>,
@@ -500,14 +625,14 @@ mod sweep {
             &mut d[..l],
             &f[..l],
             &mut p[..l],
-            &a[..l],
-            &hp[..l],
-            &inv[..l],
+            a.fit(l),
+            hp.fit(l),
+            inv.fit(l),
             &mut sums[..l],
         );
         for b in 0..l {
-            let next = d[b] - a[b] * q[b] + hp[b] * f[b];
-            p[b] = (next + d[b]) * inv[b];
+            let next = d[b] - a.at(b) * q[b] + hp.at(b) * f[b];
+            p[b] = (next + d[b]) * inv.at(b);
             sums[b] += 0.5 * (p[b] * p[b] + w2 * (q[b] * q[b]));
             d[b] = next;
         }
@@ -517,6 +642,37 @@ mod sweep {
                 modi[b] += 0.5 * (mp[b] * (p[b] * p[b]) + mq[b] * (q[b] * q[b]));
             }
         }
+    }
+
+    /// One coordinate row of the sweep, for the coefficient rows `a`, `hp`, `inv`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn row<R: Row>(
+        mode: Mode,
+        q: &mut [f64],
+        d: &mut [f64],
+        f: &[f64],
+        p: &mut [f64],
+        (a, hp, inv): (R, R, R),
+        w2: f64,
+        sums: &mut [f64],
+        modified: Option<(&[f64], &[f64], &mut [f64])>,
+    ) {
+        match mode {
+            Mode::Advance => advance(q, d, f, a, hp),
+            Mode::AdvanceAndSum => advance_and_sum(q, d, f, a, hp, sums),
+            Mode::Track => observe_and_advance(q, d, f, a, hp, inv, w2, sums, modified),
+            Mode::Sample => observe(q, d, f, p, a, hp, inv, w2, sums, modified),
+        }
+    }
+
+    /// What a step's sweep does.
+    #[derive(Clone, Copy, PartialEq, Eq)]
+    pub enum Mode {
+        Advance,
+        AdvanceAndSum,
+        Track,
+        Sample,
     }
 }
 
@@ -609,37 +765,33 @@ impl<'a> LaneRecorder<'a> {
     }
 
     /// Clears the per-lane sums of this step.
-    fn start_step(&mut self, energies: bool) {
+    fn start_step(&mut self, energies: bool, check: bool) {
         self.newly_dead.clear();
         self.energies_this_step = energies;
         if energies {
             self.oscillatory.fill(0.0);
             self.kinetic_slow.fill(0.0);
             self.modified.fill(0.0);
-        } else {
+        } else if check {
             self.position_sum.fill(0.0);
         }
     }
 
-    /// The per-lane sums of H_ω, the slow kinetic energy and H*, filled row by row.
-    fn accumulators(&mut self) -> (&mut [f64], &mut [f64], &mut [f64]) {
+    /// The per-lane sums of H_ω, the slow kinetic energy and H*, and Σ q_i (whose finiteness
+    /// checks the untracked steps), filled row by row.
+    fn accumulators(&mut self) -> (&mut [f64], &mut [f64], &mut [f64], &mut [f64]) {
         let l = self.lanes;
         (
             &mut self.oscillatory[..l],
             &mut self.kinetic_slow[..l],
             &mut self.modified[..l],
+            &mut self.position_sum[..l],
         )
-    }
-
-    /// Per-lane Σ q_i, whose finiteness checks the untracked steps.
-    fn position_sums(&mut self) -> &mut [f64] {
-        let l = self.lanes;
-        &mut self.position_sum[..l]
     }
 
     /// The lane sums for a state given whole (step 0).
     fn energies<P: Potential>(&mut self, blk: &Block<P>, q: &[f64], p: &[f64]) {
-        self.start_step(true);
+        self.start_step(true, true);
         let lanes = self.lanes;
         for i in 0..blk.n {
             let (w2, fast, slow) = (self.layout.omega2[i], blk.fast[i], blk.slow[i]);
@@ -662,6 +814,7 @@ impl<'a> LaneRecorder<'a> {
     }
 
     /// Totals, finiteness and running extremes of the active lanes from the sums of this step.
+    #[inline(always)]
     fn observe_lanes(&mut self, step: u64, u: &[f64], first: usize) {
         let lanes = self.lanes;
         let w = lanes - first;

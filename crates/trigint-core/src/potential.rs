@@ -170,19 +170,33 @@ impl Potential for Fpu {
 
     /// The loop of [`Fpu::accumulate_force`] with every scalar turned into a row of lanes:
     /// the same operations in the same order, so each lane gets the one-state bits.
+    #[inline(always)]
     fn force_lanes(
         &self,
         x: &[f64],
         f: &mut [f64],
         values: &mut [f64],
-        _with_value: bool,
+        with_value: bool,
         lanes: usize,
     ) -> CoreResult<()> {
+        if with_value {
+            self.lanes::<true>(x, f, values, lanes);
+        } else {
+            self.lanes::<false>(x, f, values, lanes);
+        }
+        Ok(())
+    }
+}
+
+impl Fpu {
+    /// [`Potential::force_lanes`] for FPU, with or without U.
+    #[inline(always)]
+    fn lanes<const VALUE: bool>(&self, x: &[f64], f: &mut [f64], values: &mut [f64], lanes: usize) {
         let m = self.m;
         let (x0, x1) = x.split_at(m * lanes);
         let (f0, f1) = f.split_at_mut(m * lanes);
         let value = &mut values[..lanes];
-        fpu_lanes::first_spring(
+        fpu_lanes::first_spring::<VALUE>(
             &x0[..lanes],
             &x1[..lanes],
             &mut f0[..lanes],
@@ -200,17 +214,16 @@ impl Potential for Fpu {
             );
             let (f0p, f0i) = f0[(i - 1) * lanes..(i + 1) * lanes].split_at_mut(lanes);
             let (f1p, f1i) = f1[(i - 1) * lanes..(i + 1) * lanes].split_at_mut(lanes);
-            fpu_lanes::middle_spring(a, c, ap, cp, f0p, f1p, f0i, f1i, value);
+            fpu_lanes::middle_spring::<VALUE>(a, c, ap, cp, f0p, f1p, f0i, f1i, value);
         }
         let last = (m - 1) * lanes..m * lanes;
-        fpu_lanes::last_spring(
+        fpu_lanes::last_spring::<VALUE>(
             &x0[last.clone()],
             &x1[last.clone()],
             &mut f0[last.clone()],
             &mut f1[last],
             value,
         );
-        Ok(())
     }
 }
 
@@ -218,13 +231,21 @@ impl Potential for Fpu {
 /// knows they do not overlap and vectorizes across lanes.
 mod fpu_lanes {
     #[inline(always)]
-    pub fn first_spring(a: &[f64], c: &[f64], g0: &mut [f64], g1: &mut [f64], value: &mut [f64]) {
+    pub fn first_spring<const VALUE: bool>(
+        a: &[f64],
+        c: &[f64],
+        g0: &mut [f64],
+        g1: &mut [f64],
+        value: &mut [f64],
+    ) {
         let l = a.len();
         let (c, g0, g1, value) = (&c[..l], &mut g0[..l], &mut g1[..l], &mut value[..l]);
         for b in 0..l {
             let d = a[b] - c[b];
             let d3 = d * d * d;
-            value[b] = 0.25 * (d3 * d);
+            if VALUE {
+                value[b] = 0.25 * (d3 * d);
+            }
             g0[b] = -d3;
             g1[b] = d3;
         }
@@ -232,7 +253,7 @@ mod fpu_lanes {
 
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn middle_spring(
+    pub fn middle_spring<const VALUE: bool>(
         a: &[f64],
         c: &[f64],
         ap: &[f64],
@@ -255,7 +276,9 @@ mod fpu_lanes {
         for b in 0..l {
             let d = a[b] - c[b] - ap[b] - cp[b];
             let d3 = d * d * d;
-            value[b] += 0.25 * (d3 * d);
+            if VALUE {
+                value[b] += 0.25 * (d3 * d);
+            }
             f0p[b] += d3;
             f1p[b] += d3;
             f0i[b] = -d3;
@@ -264,13 +287,21 @@ mod fpu_lanes {
     }
 
     #[inline(always)]
-    pub fn last_spring(a: &[f64], c: &[f64], g0: &mut [f64], g1: &mut [f64], value: &mut [f64]) {
+    pub fn last_spring<const VALUE: bool>(
+        a: &[f64],
+        c: &[f64],
+        g0: &mut [f64],
+        g1: &mut [f64],
+        value: &mut [f64],
+    ) {
         let l = a.len();
         let (c, g0, g1, value) = (&c[..l], &mut g0[..l], &mut g1[..l], &mut value[..l]);
         for b in 0..l {
             let d = a[b] + c[b];
             let d3 = d * d * d;
-            value[b] += 0.25 * (d3 * d);
+            if VALUE {
+                value[b] += 0.25 * (d3 * d);
+            }
             g0[b] -= d3;
             g1[b] -= d3;
         }
