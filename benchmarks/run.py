@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import os
 import platform
 import shutil
 import subprocess
@@ -86,6 +87,43 @@ def case_single_trajectory(n_steps: int, repeat: int) -> list[dict]:
     return rows
 
 
+def case_batch(count: int, n_steps: int, repeat: int) -> list[dict]:
+    """(b) FPU m = 3, B, `count` trajectories × `n_steps` steps (perturbed x₀,₁), one and all threads."""
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    h = 2 * np.pi / 3 / 50.0
+    Q0, P0 = ti.perturb(q0, p0, np.linspace(0.0, 1e-3, count))
+    c_ns = run_c(compile_c("fpu_soa", {"M": 3}), count, n_steps, repeat=repeat)
+    rows = [dict(case=f"(b) FPU m=3, B, {count} trajectories", impl="C structure-of-arrays loop, -O3 -march=native "
+                 "(no energies)", ns=c_ns, ratio=1.0)]
+    threads_all = os.cpu_count() or 1
+    for threads in sorted({1, threads_all}):
+        for track, label in ((False, "energies at the first and last step"), (True, "streaming max-deviation")):
+            def run(threads=threads, track=track):
+                ti.ensemble(prob, "B", Q0, P0, h=h, n_steps=n_steps, threads=threads, track_energies=track,
+                            chunk_size=count, progress=False)
+
+            ns = best_time(run, repeat) / (count * n_steps) * 1e9
+            rows.append(dict(case="", impl=f"trigint ensemble, {threads} thread{'s' * (threads > 1)}, {label}",
+                             ns=ns, ratio=ns / c_ns))
+    return rows
+
+
+def case_figure3_scan(t_end: float, points: int) -> list[dict]:
+    """The resonance scan of Figure 3: 5 panels × `points` step sizes, FPU to t_end, all cores."""
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    centres = np.pi * np.array([1 / 4, 1 / 3, 1 / 2, 2 / 3, 3 / 4])
+    h_omega = np.concatenate([np.linspace(c - 0.05, c + 0.05, points) for c in centres])
+    t = time.perf_counter()
+    s = ti.scan(prob, "B", q0, p0, h_omega=h_omega, t_end=t_end, progress=False)
+    seconds = time.perf_counter() - t
+    steps = int(s.n_steps.sum())
+    return [dict(case=f"Figure 3 scan, 5 x {points} step sizes to t = {t_end:g} ({steps:.3g} steps)",
+                 impl=f"trigint scan, {os.cpu_count()} threads", ns=seconds * 1e9 / steps, ratio=float("nan"),
+                 unit="s", value=seconds)]
+
+
 def case_resonance(repeat: int) -> list[dict]:
     """The resonance toolkit: analyze() for ℓ = 4 frequencies with N_max = 10 (11 969 vectors k)."""
     from trigint.resonance import analyze
@@ -104,7 +142,7 @@ def write_report(rows: list[dict], path: Path, n_steps: int) -> None:
         f"Python {platform.python_version()}; {dt.date.today().isoformat()}.",
         f"Single trajectory: {n_steps:.2g} steps; best of 3 runs.",
         "",
-        "| case | implementation | ns/step | × C loop |",
+        "| case | implementation | ns per (trajectory-)step | × C loop |",
         "|---|---|---:|---:|",
     ]
     for r in rows:
@@ -114,7 +152,8 @@ def write_report(rows: list[dict], path: Path, n_steps: int) -> None:
     lines += ["", "| other case | implementation | time |", "|---|---|---:|"]
     for r in rows:
         if "unit" in r:
-            lines.append(f"| {r['case']} | {r['impl']} | {r['value']:.1f} {r['unit']} |")
+            value = f"{r['value']:.3g} {r['unit']}" if r["unit"] != "s" else f"{r['value']:.1f} s"
+            lines.append(f"| {r['case']} | {r['impl']} | {value} |")
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -125,7 +164,10 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     n_steps = 200_000 if args.smoke else 20_000_000
     repeat = 1 if args.smoke else 3
-    rows = case_single_trajectory(n_steps, repeat) + case_resonance(repeat)
+    rows = case_single_trajectory(n_steps, repeat)
+    rows += case_batch(1000, 2_000 if args.smoke else 200_000, repeat)
+    rows += case_figure3_scan(100.0 if args.smoke else 100_000.0, 11 if args.smoke else 591)
+    rows += case_resonance(repeat)
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
     write_report(rows, out, n_steps)

@@ -32,6 +32,26 @@ def _resonance(args) -> int:
     return 0
 
 
+def _reproduce(args) -> int:
+    from trigint import experiments
+
+    figures = experiments.FIGURES if "all" in args.figures else args.figures
+    unknown = [f for f in figures if f not in experiments.FIGURES]
+    if unknown:
+        raise ValueError(f"figures: unknown {unknown}; valid: {', '.join(experiments.FIGURES)} or all")
+    claims = experiments.reproduce(figures, args.out, quick=args.quick)
+    print(f"figures, data (NetCDF) and report.md are in {Path(args.out).resolve()}")
+    return 0 if all(c.passed for c in claims) else 1
+
+
+def _run_toml(args) -> int:
+    from trigint import experiments
+
+    spec = experiments.load(args.spec, quick=args.quick)
+    claims, _ = experiments.run_spec(spec, args.out)
+    return 0 if all(c.passed for c in claims) else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="trigint", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -54,6 +74,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--delta", type=float, default=0.25, help="delta of Theorem 3.1 (default 1/4)")
     r.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     r.set_defaults(run=_resonance)
+
+    rp = sub.add_parser("reproduce", help="regenerate the paper's figures and measure its claims")
+    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 … fig5 or all (default)")
+    rp.add_argument("--out", default="reproduction", help="output folder (default ./reproduction)")
+    rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
+    rp.set_defaults(run=_reproduce)
+
+    ru = sub.add_parser("run", help="run an experiment spec (a TOML file, e.g. a copied figure spec)")
+    ru.add_argument("spec", help="path of the TOML spec, or fig1 … fig5")
+    ru.add_argument("--out", default="reproduction")
+    ru.add_argument("--quick", action="store_true")
+    ru.set_defaults(run=_run_toml)
     return parser
 
 

@@ -71,3 +71,117 @@ def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
 def max_abs(values) -> float:
     """max |x| of an array-like (a helper for axis limits)."""
     return float(np.max(np.abs(np.asarray(values))))
+
+
+# --- the paper's figures -------------------------------------------------------------------
+
+def figure(ds):
+    """The figure of an experiment dataset (from :func:`trigint.experiments.run`), laid out like
+    the paper's; returns a matplotlib Figure."""
+    kind = ds.attrs["kind"]
+    return {"families": _plot_families, "perturbed": _plot_perturbed, "scan": _plot_scan,
+            "methods": _plot_methods}[kind](ds)
+
+
+def _caption(fig, ds, y=0.0):
+    import textwrap
+
+    text = textwrap.fill(ds.attrs.get("caption", ""), 120)
+    if ds.attrs.get("quick"):
+        text += "\n(reduced run: --quick)"
+    fig.text(0.01, y, text, fontsize=7, va="bottom", ha="left", wrap=True)
+
+
+def _plot_families(ds):
+    plt = _pyplot()
+    n = ds.sizes["panel"]
+    fig, axes = plt.subplots(n, 1, figsize=(7, 2.6 * n + 0.9), squeeze=False)
+    labels = ds.attrs["panel_labels"].split("|")
+    for i, ax in enumerate(axes[:, 0]):
+        for c in range(ds.sizes["curve"]):
+            if not np.isfinite(ds.omega.values[i, c]):
+                continue
+            shade = "black" if c == 0 else str(0.15 + 0.6 * c / ds.sizes["curve"])
+            ax.plot(ds.t.values[i, c], ds.deviation.values[i, c], lw=0.7, color=shade,
+                    label=f"ω = {ds.omega.values[i, c]:.1f} (l = {int(ds.l.values[i, c])})")
+        ax.set_title(labels[i], fontsize=9)
+        ax.set_xlabel("t")
+        ax.set_ylabel("H_ω(t) − H_ω(0)")
+        ax.set_xlim(0, float(ds.t_end.values[i]))
+        ax.legend(fontsize=6, ncol=4, frameon=False, loc="lower left")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    _caption(fig, ds)
+    return fig
+
+
+def _plot_perturbed(ds):
+    plt = _pyplot()
+    n = ds.sizes["panel"]
+    fig, axes = plt.subplots(n, 1, figsize=(7, 2.3 * n + 0.9), squeeze=False)
+    labels = ds.attrs["panel_labels"].split("|")
+    for i, ax in enumerate(axes[:, 0]):
+        rows = np.flatnonzero(np.isfinite(ds.delta.values[i]))
+        for c in rows[1:]:
+            ax.plot(ds.t.values[i, c], ds.deviation.values[i, c], lw=0.4, color="0.65")
+        ax.plot(ds.t.values[i, 0], ds.deviation.values[i, 0], lw=0.6, color="black")
+        ax.set_xlim(0, float(ds.t_end.values[i]))
+        ax.set_title(f"{labels[i]}, t_end = {float(ds.t_end.values[i]):,.0f}"
+                     f"   (black: standard data; {rows.size - 1} gray: x₀,₁(0) = 1 ± δ)", fontsize=8)
+        ax.set_ylabel("H_ω(t) − H_ω(0)")
+        ax.axhline(0, color="0.85", lw=0.5, zorder=0)
+    axes[-1, 0].set_xlabel("t")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    _caption(fig, ds)
+    return fig
+
+
+def _plot_scan(ds):
+    plt = _pyplot()
+    n = ds.sizes["panel"]
+    fig, axes = plt.subplots(1, n, figsize=(2.2 * n, 3.4), sharey=True, squeeze=False)
+    labels = ds.attrs["centre_labels"].split("|")
+    top = float(np.nanmax(ds.max_deviation.values))
+    for i, ax in enumerate(axes[0]):
+        for j in np.flatnonzero(ds.resonance_panel.values == i):
+            x = ds.resonance_h_omega.values[j]
+            k, r = int(ds.resonance_k.values[j]), int(ds.resonance_r.values[j])
+            ax.axvline(x, color="tab:red", lw=0.6, ls="--", alpha=0.4 + 0.6 / k)
+            if k <= 8:
+                ax.text(x, top * 1.15, f"2π·{r}/{k}" if r > 1 else f"2π/{k}", fontsize=6, ha="center",
+                        color="tab:red")
+        k, r = int(ds.centre_k.values[i]), int(ds.centre_r.values[i])
+        if k:
+            half = np.sqrt(ds.centre.values[i] / ds.attrs["omega"]) / k  # |k hω − 2πr| < √h
+            ax.axvspan(ds.centre.values[i] - half, ds.centre.values[i] + half, color="tab:red", alpha=0.06, lw=0)
+        ax.plot(ds.h_omega.values[i], ds.max_deviation.values[i], lw=0.6, color="black")
+        ax.set_yscale("log")
+        ax.set_title(labels[i].replace("*", "").replace("pi", "π"), fontsize=9, pad=12)
+        ax.set_xlabel("hω")
+        ax.tick_params(labelsize=6)
+    axes[0, 0].set_ylabel(f"max |H_ω(t) − H_ω(0)|, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    _caption(fig, ds)
+    return fig
+
+
+def _plot_methods(ds):
+    plt = _pyplot()
+    methods = list(ds.method.values)
+    fig, axes = plt.subplots(len(methods), 1, figsize=(7, 2.5 * len(methods) + 0.9), squeeze=False)
+    for i, ax in enumerate(axes[:, 0]):
+        for c in reversed(range(ds.sizes["curve"])):
+            color = "black" if c == 0 else "0.6"
+            ax.plot(ds.t.values[i, c], ds.deviation.values[i, c], lw=0.7, color=color,
+                    label=f"ω = {ds.omega.values[c]:g}")
+        ax.set_title(f"method ({methods[i]})", fontsize=9)
+        ax.set_ylabel("H_ω(t) − H_ω(0)")
+        ax.set_xlim(0, ds.attrs["t_end"])
+        ax.legend(fontsize=7, frameon=False)
+    axes[-1, 0].set_xlabel("t")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    _caption(fig, ds)
+    return fig

@@ -51,7 +51,17 @@ fn main() {
         q0[t * 2 * m + m] = 1.0 / w;
         p0[t * 2 * m + m] = 1.0;
     }
-    let methods = vec![method; count];
+    let varied = a.get(6).map(|s| s == "1").unwrap_or(false);
+    let methods: Vec<TrajectoryMethod> = (0..count)
+        .map(|t| {
+            let mut m = method.clone();
+            if varied {
+                // a slightly different step size per trajectory, as in a scan
+                m.coefficients.h *= 1.0 + 1e-6 * t as f64;
+            }
+            m
+        })
+        .collect();
     let spec = BatchSpec {
         save_every: None,
         track_energies: track,
