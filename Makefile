@@ -30,9 +30,9 @@ lint: install
 	cargo clippy --release --workspace --all-targets -- -D warnings
 	$(VENV)/bin/ruff check python tests examples benchmarks
 
+# The main job: the paper's Figures 1-5 at full resolution, their data and the measured claims.
 reproduce: install
-	$(VENV)/bin/trigint fpu --out $(OUT)
-	@echo "figures written to $(OUT)/"
+	$(VENV)/bin/trigint reproduce all --out $(OUT)
 
 bench: install
 	$(PY) benchmarks/run.py

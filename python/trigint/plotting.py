@@ -108,7 +108,7 @@ def _plot_families(ds):
         ax.set_xlabel("t")
         ax.set_ylabel("H_ω(t) − H_ω(0)")
         ax.set_xlim(0, float(ds.t_end.values[i]))
-        ax.legend(fontsize=6, ncol=4, frameon=False, loc="lower left")
+        ax.legend(fontsize=6, ncol=2, frameon=False, loc="upper left")
     fig.suptitle(ds.attrs["title"], fontsize=10)
     fig.tight_layout(rect=(0, 0.09, 1, 1))
     _caption(fig, ds)
@@ -126,7 +126,8 @@ def _plot_perturbed(ds):
             ax.plot(ds.t.values[i, c], ds.deviation.values[i, c], lw=0.4, color="0.65")
         ax.plot(ds.t.values[i, 0], ds.deviation.values[i, 0], lw=0.6, color="black")
         ax.set_xlim(0, float(ds.t_end.values[i]))
-        ax.set_title(f"{labels[i]}, t_end = {float(ds.t_end.values[i]):,.0f}"
+        ax.set_title(f"{labels[i].replace('2*pi/3', '2π/3').replace('sqrt(12)', '√12')}, "
+                     f"t_end = {float(ds.t_end.values[i]):,.0f}"
                      f"   (black: standard data; {rows.size - 1} gray: x₀,₁(0) = 1 ± δ)", fontsize=8)
         ax.set_ylabel("H_ω(t) − H_ω(0)")
         ax.axhline(0, color="0.85", lw=0.5, zorder=0)
@@ -140,7 +141,7 @@ def _plot_perturbed(ds):
 def _plot_scan(ds):
     plt = _pyplot()
     n = ds.sizes["panel"]
-    fig, axes = plt.subplots(1, n, figsize=(2.2 * n, 3.4), sharey=True, squeeze=False)
+    fig, axes = plt.subplots(1, n, figsize=(2.3 * n, 4.4), sharey=True, squeeze=False)
     labels = ds.attrs["centre_labels"].split("|")
     top = float(np.nanmax(ds.max_deviation.values))
     for i, ax in enumerate(axes[0]):
@@ -149,20 +150,21 @@ def _plot_scan(ds):
             k, r = int(ds.resonance_k.values[j]), int(ds.resonance_r.values[j])
             ax.axvline(x, color="tab:red", lw=0.6, ls="--", alpha=0.4 + 0.6 / k)
             if k <= 8:
-                ax.text(x, top * 1.15, f"2π·{r}/{k}" if r > 1 else f"2π/{k}", fontsize=6, ha="center",
-                        color="tab:red")
+                ax.text(x, 1.01, f"2π·{r}/{k}" if r > 1 else f"2π/{k}", fontsize=6, ha="center", va="bottom",
+                        color="tab:red", transform=ax.get_xaxis_transform())
         k, r = int(ds.centre_k.values[i]), int(ds.centre_r.values[i])
         if k:
             half = np.sqrt(ds.centre.values[i] / ds.attrs["omega"]) / k  # |k hω − 2πr| < √h
             ax.axvspan(ds.centre.values[i] - half, ds.centre.values[i] + half, color="tab:red", alpha=0.06, lw=0)
         ax.plot(ds.h_omega.values[i], ds.max_deviation.values[i], lw=0.6, color="black")
         ax.set_yscale("log")
-        ax.set_title(labels[i].replace("*", "").replace("pi", "π"), fontsize=9, pad=12)
+        ax.set_title(f"centre {labels[i].replace('*', '').replace('pi', 'π')}", fontsize=9, pad=14)
         ax.set_xlabel("hω")
         ax.tick_params(labelsize=6)
-    axes[0, 0].set_ylabel(f"max |H_ω(t) − H_ω(0)|, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}")
+    axes[0, 0].set_ylabel(f"max |H_ω(t) − H_ω(0)|, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}", fontsize=8)
+    axes[0, 0].set_ylim(top=top * 1.5)
     fig.suptitle(ds.attrs["title"], fontsize=10)
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.tight_layout(rect=(0, 0.16, 1, 1))
     _caption(fig, ds)
     return fig
 
@@ -173,7 +175,7 @@ def _plot_methods(ds):
     fig, axes = plt.subplots(len(methods), 1, figsize=(7, 2.5 * len(methods) + 0.9), squeeze=False)
     for i, ax in enumerate(axes[:, 0]):
         for c in reversed(range(ds.sizes["curve"])):
-            color = "black" if c == 0 else "0.6"
+            color = "black" if c == 0 else str(0.35 + 0.4 * c / ds.sizes["curve"])
             ax.plot(ds.t.values[i, c], ds.deviation.values[i, c], lw=0.7, color=color,
                     label=f"ω = {ds.omega.values[c]:g}")
         ax.set_title(f"method ({methods[i]})", fontsize=9)

@@ -191,7 +191,7 @@ def run_perturbed(fig: dict) -> xr.Dataset:
                 "spread_from": ("panel", [float(p.get("spread_from", 0.0)) for p in panels])},
         attrs={"omega": omega, "method": repr(method), "energy": energy,
                "early_ratio_max": float(fig.get("early_ratio_max", 10.0)),
-               "panel_labels": "|".join(p.get("label", f"t_end = {float(p['t_end']):g}") for p in panels)},
+               "panel_labels": "|".join(p.get("label", f"ω = {omega:g}, hω = {p['h_omega']}") for p in panels)},
     )
 
 

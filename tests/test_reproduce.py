@@ -1,0 +1,83 @@
+"""The paper's experiments in their --quick form: every claim measured and passing, files written."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from trigint import experiments
+from trigint.experiments.runners import perturbations
+from trigint.experiments.spec import number
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduction")
+    claims = experiments.reproduce(experiments.FIGURES, out, quick=True, log=lambda *_: None)
+    return out, claims
+
+
+def test_every_quick_claim_passes(quick):
+    out, claims = quick
+    failed = [f"{c.figure}: {c.claim} = {c.measured}" for c in claims if not c.passed]
+    assert not failed, failed
+    assert {c.figure for c in claims} == set(experiments.FIGURES)
+    for fig in experiments.FIGURES:
+        for ext in ("nc", "png", "pdf"):
+            assert (out / f"{fig}.{ext}").stat().st_size > 1000
+    report = (out / "report.md").read_text()
+    assert f"{len(claims)} of {len(claims)} claims pass" in report
+
+
+def test_figure1_exponents(quick):
+    out, claims = quick
+    exps = [c.measured for c in claims if c.figure == "fig1" and "exponent" in c.claim]
+    assert exps[0] == pytest.approx(2.0, abs=0.15)
+    assert exps[1] == pytest.approx(3.0, abs=0.15)
+    ds = xr.open_dataset(out / "fig1.nc", engine="scipy")
+    assert ds.sizes["curve"] == 7 and ds.omega.values[0, 0] == pytest.approx(100.0)
+    assert ds.omega.values[1, 6] == pytest.approx(100 * 7 ** (-1 / 3))
+
+
+def test_figure5_growth_and_ratio(quick):
+    _, claims = quick
+    fig5 = {c.claim.split(":")[0]: c.measured for c in claims if c.figure == "fig5"}
+    assert fig5["(B)"] == pytest.approx(1.0, abs=0.15)
+    assert fig5["max |deviation| of (A) / that of (B), worst ω"] < 0.01
+
+
+def test_figure2_spread_is_a_random_walk(quick):
+    _, claims = quick
+    spread = [c.measured for c in claims if c.figure == "fig2" and "spread of the perturbed" in c.claim]
+    assert spread and spread[0] == pytest.approx(0.5, abs=0.2)
+
+
+def test_user_spec_runs_from_a_copied_toml(tmp_path):
+    text = (experiments.spec.resources.files("trigint.experiments") / "specs" / "fig5.toml").read_text()
+    text = text.replace('omegas = [200.0, 100.0, 50.0]', 'omegas = [160.0, 80.0]')
+    path = tmp_path / "mine.toml"
+    path.write_text(text)
+    out = subprocess.run([sys.executable, "-m", "trigint.cli", "run", str(path), "--quick", "--out", str(tmp_path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    ds = xr.open_dataset(tmp_path / "fig5.nc", engine="scipy")
+    assert ds.omega.values.tolist() == [160.0, 80.0]
+
+
+def test_spec_expressions_and_errors():
+    assert number("2*pi/3") == pytest.approx(2 * np.pi / 3)
+    assert number("100 * l**(-1/2)", l=4) == pytest.approx(50.0)
+    assert number("sqrt(12)") == pytest.approx(np.sqrt(12))
+    with pytest.raises(ValueError, match="cannot evaluate"):
+        number("__import__('os')")
+    with pytest.raises(ValueError, match="neither a figure"):
+        experiments.load("fig9")
+
+
+def test_perturbations_are_distinct_doubles():
+    d = perturbations(9, 7e-16)
+    assert len(set((1.0 + d).tolist())) == 9 and np.all(np.abs(d) <= 7e-16) and np.all(d != 0)
+    with pytest.raises(ValueError, match="only 9 doubles"):
+        perturbations(10, 7e-16)
