@@ -22,6 +22,8 @@ import numpy as np
 import trigint as ti
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import competitors  # noqa: E402
 BUILD = HERE / "build"
 
 
@@ -84,7 +86,127 @@ def case_single_trajectory(n_steps: int, repeat: int) -> list[dict]:
             seconds = best_time(run, repeat)
             ns = seconds / n_steps * 1e9
             rows.append(dict(case="", impl=f"{label} ({form})", ns=ns, ratio=ns / c_ns))
+    kernel = competitors.numba_kernel()
+    competitors.numba_run(h, prob.omega, q0, p0, 10, kernel)  # compile outside the timing
+    ns = best_time(lambda: competitors.numba_run(h, prob.omega, q0, p0, n_steps, kernel), repeat) / n_steps * 1e9
+    rows.append(dict(case="", impl="Numba, the same recursion (compilation excluded)", ns=ns, ratio=ns / c_ns))
+    few = max(n_steps // 100, 1000)
+    ns = best_time(lambda: competitors.numpy_run(h, prob.omega, q0, p0, few), 1) / few * 1e9
+    rows.append(dict(case="", impl=f"NumPy, the same recursion ({few:.0e} steps)", ns=ns, ratio=ns / c_ns))
     return rows
+
+
+def case_scipy(t_end: float, rtols) -> list[dict]:
+    """(a') FPU to t_end: trigint (B, hω = 2π/3 and hω = 0.5) against SciPy's DOP853."""
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    rows = []
+    for h_omega in (2 * np.pi / 3, 0.5):
+        h = h_omega / 50.0
+        t = time.perf_counter()
+        sol = ti.integrate(prob, "B", q0, p0, h=h, t_end=t_end, save_every=10**9, progress=False)
+        seconds = time.perf_counter() - t
+        rows.append(dict(case=f"(a') FPU to t = {t_end:g}", impl=f"trigint, method B, hω = {h_omega:.3g}",
+                         unit="s", value=seconds, extra=f"max osc. energy deviation {sol.max_deviation['oscillatory']:.3g}"))
+    for rtol in rtols:
+        r = competitors.scipy_run(prob.omega, q0, p0, t_end, rtol)
+        rows.append(dict(case="", impl=f"SciPy solve_ivp DOP853, rtol = {rtol:g}", unit="s", value=r["seconds"],
+                         extra=f"max osc. energy deviation {r['oscillatory_deviation']:.3g} "
+                               f"({r['rhs_evaluations']} right-hand sides)"))
+    return rows
+
+
+def case_scalar_experiment1(n_steps: int, repeat: int) -> list[dict]:
+    """(c) Experiment 1's scalar problem, ω = 100, hω = 2π/3: the per-step overhead."""
+    prob = ti.problems.experiment1(100.0)
+    q0, p0 = ti.problems.experiment1_initial(100.0)
+    h = 2 * np.pi / 3 / 100.0
+    rows = []
+    for track in (True, False):
+        def run(track=track):
+            ti.integrate(prob, "B", q0, p0, h=h, n_steps=n_steps, save_every=n_steps, track_energies=track,
+                         progress=False)
+
+        ns = best_time(run, repeat) / n_steps * 1e9
+        rows.append(dict(case="(c) Experiment 1, one coordinate" if track else "",
+                         impl=f"trigint, {'streamed energies' if track else 'energies at samples'}",
+                         ns=ns, ratio=float("nan")))
+    return rows
+
+
+def case_large(m: int, n_steps: int, repeat: int) -> list[dict]:
+    """(d) FPU with m = 1000 (2000 coordinates): the potential dominates."""
+    prob = ti.problems.fpu(m=m, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=m, omega=50.0)
+    h = 2 * np.pi / 3 / 50.0
+    c_ns = run_c(compile_c("fpu_scalar", {"M": m}), n_steps, repeat=repeat)
+    rows = [dict(case=f"(d) FPU m={m} ({2 * m} coordinates)", impl="C loop, -O3 -march=native (no energies)",
+                 ns=c_ns, ratio=1.0)]
+    for track in (True, False):
+        def run(track=track):
+            ti.integrate(prob, "B", q0, p0, h=h, n_steps=n_steps, save_every=n_steps, track_energies=track,
+                         progress=False)
+
+        ns = best_time(run, repeat) / n_steps * 1e9
+        rows.append(dict(case="", impl=f"trigint, {'streamed energies' if track else 'energies at samples'}",
+                         ns=ns, ratio=ns / c_ns))
+    kernel = competitors.numba_kernel()
+    competitors.numba_run(h, prob.omega, q0, p0, 10, kernel)
+    ns = best_time(lambda: competitors.numba_run(h, prob.omega, q0, p0, n_steps, kernel), repeat) / n_steps * 1e9
+    rows.append(dict(case="", impl="Numba, the same recursion", ns=ns, ratio=ns / c_ns))
+    ns = best_time(lambda: competitors.numpy_run(h, prob.omega, q0, p0, n_steps), 1) / n_steps * 1e9
+    rows.append(dict(case="", impl="NumPy, the same recursion", ns=ns, ratio=ns / c_ns))
+    return rows
+
+
+SCALING_SCRIPT = """
+import resource, sys, time, numpy as np, trigint as ti
+kind, size = sys.argv[1], int(float(sys.argv[2]))
+prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial(); h = 2 * np.pi / 3 / 50
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t = time.perf_counter()
+if kind == "steps":
+    ti.integrate(prob, "B", q0, p0, h=h, n_steps=size, save_every=size, progress=False)
+    work = size
+else:
+    Q0, P0 = ti.perturb(q0, p0, np.linspace(0, 1e-3, size))
+    ti.ensemble(prob, "B", Q0, P0, h=h, n_steps=20000, progress=False)
+    work = size * 20000
+seconds = time.perf_counter() - t
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(seconds, work, before, after)
+"""
+
+
+def case_scaling(steps, trajectories) -> list[str]:
+    """Cost against steps (one trajectory) and trajectories (2·10⁴ steps each); peak memory."""
+    lines = ["| run | size | seconds | ns per (trajectory-)step | peak RSS (MiB) |", "|---|---:|---:|---:|---:|"]
+    for kind, sizes in (("steps", steps), ("trajectories", trajectories)):
+        for size in sizes:
+            out = subprocess.run([sys.executable, "-c", SCALING_SCRIPT, kind, str(size)], check=True,
+                                 capture_output=True, text=True).stdout.split()
+            seconds, work, _, after = float(out[0]), int(out[1]), int(out[2]), int(out[3])
+            label = "one trajectory, steps" if kind == "steps" else "trajectories × 2·10⁴ steps"
+            lines.append(f"| {label} | {size:.0e} | {seconds:.3g} | {seconds / work * 1e9:.2f} | {after / 1024:.0f} |")
+    return lines
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    from trigint.plotting import _pyplot
+
+    plt = _pyplot()
+    timed = [r for r in rows if "unit" not in r and np.isfinite(r["ns"])]
+    labels = [(r["case"] or "") + "\n" + r["impl"] if r["case"] else r["impl"] for r in timed]
+    fig, ax = plt.subplots(figsize=(9, 0.32 * len(timed) + 1.2))
+    colors = ["tab:blue" if r["impl"].startswith("trigint") else "0.6" for r in timed]
+    ax.barh(range(len(timed)), [r["ns"] for r in timed], color=colors)
+    ax.set_yticks(range(len(timed)), [lab.replace("\n", " | ") for lab in labels], fontsize=6)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("ns per (trajectory-)step (log scale); blue: trigint, gray: C, Numba, NumPy")
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
 
 
 def case_batch(count: int, n_steps: int, repeat: int) -> list[dict]:
@@ -134,7 +256,7 @@ def case_resonance(repeat: int) -> list[dict]:
                  unit="ms", value=seconds * 1e3)]
 
 
-def write_report(rows: list[dict], path: Path, n_steps: int) -> None:
+def write_report(rows: list[dict], path: Path, n_steps: int, scaling: list[str]) -> None:
     lines = [
         "# trigint benchmarks",
         "",
@@ -149,11 +271,19 @@ def write_report(rows: list[dict], path: Path, n_steps: int) -> None:
         if "unit" in r:
             continue
         lines.append(f"| {r['case']} | {r['impl']} | {r['ns']:.2f} | {r['ratio']:.2f} |")
-    lines += ["", "| other case | implementation | time |", "|---|---|---:|"]
+    lines += ["", "| other case | implementation | time | notes |", "|---|---|---:|---|"]
     for r in rows:
         if "unit" in r:
-            value = f"{r['value']:.3g} {r['unit']}" if r["unit"] != "s" else f"{r['value']:.1f} s"
-            lines.append(f"| {r['case']} | {r['impl']} | {value} |")
+            value = f"{r['value']:.3g} {r['unit']}" if r["unit"] != "s" else f"{r['value']:.3g} s"
+            lines.append(f"| {r['case']} | {r['impl']} | {value} | {r.get('extra', '')} |")
+    trigint_a = next(r["ns"] for r in rows if r["impl"].startswith("trigint, streaming max-deviation"))
+    lines += ["", "Speed-up of trigint (one trajectory, streamed energies, two-step form) over each competitor "
+              "of case (a):", ""]
+    for r in rows:
+        if r.get("case", "").startswith("(a)") or (r in rows[:8] and not r["impl"].startswith("trigint")):
+            if "unit" not in r and not r["impl"].startswith("trigint"):
+                lines.append(f"- {r['impl']}: {r['ns'] / trigint_a:.2f}×")
+    lines += ["", "Scaling: cost linear in steps and trajectories, memory flat in steps:", "", *scaling]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -166,11 +296,17 @@ def main(argv=None) -> int:
     repeat = 1 if args.smoke else 3
     rows = case_single_trajectory(n_steps, repeat)
     rows += case_batch(1000, 2_000 if args.smoke else 200_000, repeat)
+    rows += case_scalar_experiment1(n_steps, repeat)
+    rows += case_large(1000, 2_000 if args.smoke else 200_000, repeat)
+    rows += case_scipy(10.0 if args.smoke else 100.0, (1e-6,) if args.smoke else (1e-6, 1e-9))
     rows += case_figure3_scan(100.0 if args.smoke else 100_000.0, 11 if args.smoke else 591)
     rows += case_resonance(repeat)
+    scaling = case_scaling((1e4, 1e5) if args.smoke else (1e5, 1e6, 1e7, 1e8),
+                           (10, 100) if args.smoke else (10, 100, 1000, 10000))
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
-    write_report(rows, out, n_steps)
+    write_report(rows, out, n_steps, scaling)
+    plot(rows, out.with_suffix(".png"))
     print(out.read_text())
     print(f"wrote {out}")
     return 0

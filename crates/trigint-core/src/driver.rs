@@ -98,18 +98,109 @@ pub fn integrate<P: Potential>(
         ($($dim:literal)*) => {
             match (n, spec.form) {
                 $(
-                    ($dim, Form::TwoStep) => run(TwoStep::<P, [f64; $dim]>::new(pot, &k), layout, q0, p0, spec, progress),
-                    ($dim, Form::OneStep) => run(OneStep::<P, [f64; $dim]>::new(pot, &k), layout, q0, p0, spec, progress),
+                    ($dim, Form::TwoStep) => run::<Inline, _>(TwoStep::<P, [f64; $dim]>::new(pot, &k), layout, q0, p0, spec, progress),
+                    ($dim, Form::OneStep) => run::<Inline, _>(OneStep::<P, [f64; $dim]>::new(pot, &k), layout, q0, p0, spec, progress),
                 )*
-                (_, Form::TwoStep) => run(TwoStep::<P, Vec<f64>>::new(pot, &k), layout, q0, p0, spec, progress),
-                (_, Form::OneStep) => run(OneStep::<P, Vec<f64>>::new(pot, &k), layout, q0, p0, spec, progress),
+                (_, Form::TwoStep) => run::<Wide, _>(TwoStep::<P, Vec<f64>>::new(pot, &k), layout, q0, p0, spec, progress),
+                (_, Form::OneStep) => run::<Wide, _>(OneStep::<P, Vec<f64>>::new(pot, &k), layout, q0, p0, spec, progress),
             }
         };
     }
     dispatch!(1 2 3 4 6 8)
 }
 
-fn run<K: Stepper>(
+/// How a chunk of steps is run: inlined into the step loop (small states, where the loop is
+/// latency-bound and best left alone), or through copies compiled for the widest vectors this CPU
+/// has (large states). The copies differ only in instruction encoding (no fused multiply-add is
+/// ever formed), so every choice gives the same bits.
+trait Steps {
+    /// Steps from `done` to `upto`; returns the last step reached and whether it was finite.
+    fn steps<K: Stepper>(
+        kernel: &mut K,
+        rec: &mut Recorder<K::S>,
+        done: u64,
+        upto: u64,
+    ) -> CoreResult<(u64, bool)>;
+}
+
+#[inline(always)]
+fn steps_inline<K: Stepper>(
+    kernel: &mut K,
+    rec: &mut Recorder<K::S>,
+    mut done: u64,
+    upto: u64,
+) -> CoreResult<(u64, bool)> {
+    while done < upto {
+        if !kernel.step(rec)? {
+            return Ok((done, false));
+        }
+        done += 1;
+    }
+    Ok((done, true))
+}
+
+struct Inline;
+
+impl Steps for Inline {
+    #[inline(always)]
+    fn steps<K: Stepper>(
+        kernel: &mut K,
+        rec: &mut Recorder<K::S>,
+        done: u64,
+        upto: u64,
+    ) -> CoreResult<(u64, bool)> {
+        steps_inline(kernel, rec, done, upto)
+    }
+}
+
+struct Wide;
+
+impl Steps for Wide {
+    fn steps<K: Stepper>(
+        kernel: &mut K,
+        rec: &mut Recorder<K::S>,
+        done: u64,
+        upto: u64,
+    ) -> CoreResult<(u64, bool)> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F, checked just above.
+                return unsafe { steps_avx512(kernel, rec, done, upto) };
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { steps_avx2(kernel, rec, done, upto) };
+            }
+        }
+        steps_inline(kernel, rec, done, upto)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn steps_avx512<K: Stepper>(
+    kernel: &mut K,
+    rec: &mut Recorder<K::S>,
+    done: u64,
+    upto: u64,
+) -> CoreResult<(u64, bool)> {
+    steps_inline(kernel, rec, done, upto)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn steps_avx2<K: Stepper>(
+    kernel: &mut K,
+    rec: &mut Recorder<K::S>,
+    done: u64,
+    upto: u64,
+) -> CoreResult<(u64, bool)> {
+    steps_inline(kernel, rec, done, upto)
+}
+
+/// The step loop: chunks of steps between progress reports, blow-up and interruption.
+fn run<W: Steps, K: Stepper>(
     mut kernel: K,
     layout: &EnergyLayout,
     q0: &[f64],
@@ -139,15 +230,14 @@ fn run<K: Stepper>(
     let mut done = 0u64; // the last observed step
     while done < spec.n_steps {
         let upto = spec.n_steps.min(done.saturating_add(chunk));
-        while done < upto {
-            if !kernel.step(&mut rec)? {
-                let message = format!(
-                    "the solution blew up: the state at step {} is not finite; kept the samples up to step {done}",
-                    done + 1
-                );
-                return Ok(finish(rec, Status::BlowUp, done, message));
-            }
-            done += 1;
+        let finite;
+        (done, finite) = W::steps(&mut kernel, &mut rec, done, upto)?;
+        if !finite {
+            let message = format!(
+                "the solution blew up: the state at step {} is not finite; kept the samples up to step {done}",
+                done + 1
+            );
+            return Ok(finish(rec, Status::BlowUp, done, message));
         }
         if !progress(done) {
             let message = format!(

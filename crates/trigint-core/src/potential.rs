@@ -108,9 +108,13 @@ impl Fpu {
 
     /// g = −∇U into `f`, returning U. Written out spring by spring (no closures, no branches)
     /// and with `m` taken from the slice length, so a fixed-size state unrolls completely.
+    /// Long chains go through [`Fpu::accumulate_force_long`], which gives the same bits.
     #[inline(always)]
     fn accumulate_force(x: &[f64], f: &mut [f64]) -> f64 {
         let m = x.len() / 2;
+        if m > 16 {
+            return Self::accumulate_force_long::<true>(x, f);
+        }
         let (x0, x1) = x.split_at(m);
         let (f0, f1) = f.split_at_mut(m);
         let (x0, x1, f0, f1) = (&x0[..m], &x1[..m], &mut f0[..m], &mut f1[..m]);
@@ -138,6 +142,72 @@ impl Fpu {
         f1[m - 1] -= d3;
         value
     }
+
+    /// The same numbers for long chains, in vectorizable passes over stretches of springs:
+    /// the elongations d and cubes d³ of the springs, then the forces g₀,ᵢ = (−d³ᵢ) + d³ᵢ₊₁ and
+    /// g₁,ᵢ = d³ᵢ + d³ᵢ₊₁ (g₀,ₘ = (−d³ₘ) − d³ₘ₊₁, g₁,ₘ = d³ₘ − d³ₘ₊₁ at the end): the operations
+    /// of the single pass, so the same bits. U is summed spring by spring in the same order.
+    #[inline(always)]
+    fn accumulate_force_long<const VALUE: bool>(x: &[f64], f: &mut [f64]) -> f64 {
+        const STRETCH: usize = 64;
+        let m = x.len() / 2;
+        let (x0, x1) = x.split_at(m);
+        let (f0, f1) = f.split_at_mut(m);
+        let (mut ds, mut cubes) = ([0.0f64; STRETCH + 1], [0.0f64; STRETCH + 1]);
+        // Slot 0 of a stretch holds its first spring, carried over from the stretch before.
+        ds[0] = x0[0] - x1[0];
+        cubes[0] = ds[0] * ds[0] * ds[0];
+        let mut value = 0.25 * (cubes[0] * ds[0]);
+        let mut start = 0; // springs start ..= end act on coordinates start .. end
+        while start < m {
+            let end = (start + STRETCH).min(m);
+            let inner = end.min(m - 1) - start; // springs start+1 ..= start+inner are inner ones
+            {
+                let (a, c) = (
+                    &x0[start + 1..start + 1 + inner],
+                    &x1[start + 1..start + 1 + inner],
+                );
+                let (ap, cp) = (&x0[start..start + inner], &x1[start..start + inner]);
+                let (d, d3) = (&mut ds[1..1 + inner], &mut cubes[1..1 + inner]);
+                for j in 0..inner {
+                    d[j] = a[j] - c[j] - ap[j] - cp[j];
+                    d3[j] = d[j] * d[j] * d[j];
+                }
+            }
+            if end == m {
+                let j = m - start;
+                ds[j] = x0[m - 1] + x1[m - 1];
+                cubes[j] = ds[j] * ds[j] * ds[j];
+            }
+            let springs = end - start; // springs start+1 ..= end are new here
+            if VALUE {
+                for j in 1..=springs {
+                    value += 0.25 * (cubes[j] * ds[j]);
+                }
+            }
+            let last_inner = if end == m { springs - 1 } else { springs };
+            {
+                let (g0, g1) = (
+                    &mut f0[start..start + last_inner],
+                    &mut f1[start..start + last_inner],
+                );
+                let (now, next) = (&cubes[..last_inner], &cubes[1..1 + last_inner]);
+                for j in 0..last_inner {
+                    g0[j] = -now[j] + next[j];
+                    g1[j] = now[j] + next[j];
+                }
+            }
+            if end == m {
+                let (c, c_end) = (cubes[springs - 1], cubes[springs]);
+                f0[m - 1] = -c - c_end;
+                f1[m - 1] = c - c_end;
+            }
+            ds[0] = ds[springs];
+            cubes[0] = cubes[springs];
+            start = end;
+        }
+        value
+    }
 }
 
 impl Potential for Fpu {
@@ -159,7 +229,11 @@ impl Potential for Fpu {
 
     #[inline]
     fn force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<()> {
-        Self::accumulate_force(x, f);
+        if x.len() / 2 > 16 {
+            Self::accumulate_force_long::<false>(x, f);
+        } else {
+            Self::accumulate_force(x, f);
+        }
         Ok(())
     }
 
@@ -446,6 +520,42 @@ mod tests {
             for (a, b) in f.iter().zip(numerical_force(&p, &x)) {
                 assert!((a - b).abs() < 1e-8, "m={m}: {a} vs {b}");
             }
+        }
+    }
+
+    #[test]
+    fn long_chains_give_the_single_pass_bits() {
+        // accumulate_force_long against the single-pass loop written out here, bit for bit.
+        for m in [17, 64, 65, 128, 129, 1000] {
+            let x: Vec<f64> = (0..2 * m)
+                .map(|i| 0.3 * ((i as f64) * 0.37).sin())
+                .collect();
+            let (x0, x1) = x.split_at(m);
+            let (mut f0, mut f1) = (vec![0.0; m], vec![0.0; m]);
+            let d = x0[0] - x1[0];
+            let d3 = d * d * d;
+            let mut value = 0.25 * (d3 * d);
+            f0[0] = -d3;
+            f1[0] = d3;
+            for i in 1..m {
+                let d = x0[i] - x1[i] - x0[i - 1] - x1[i - 1];
+                let d3 = d * d * d;
+                value += 0.25 * (d3 * d);
+                f0[i - 1] += d3;
+                f1[i - 1] += d3;
+                f0[i] = -d3;
+                f1[i] = d3;
+            }
+            let d = x0[m - 1] + x1[m - 1];
+            let d3 = d * d * d;
+            value += 0.25 * (d3 * d);
+            f0[m - 1] -= d3;
+            f1[m - 1] -= d3;
+            let mut f = vec![0.0; 2 * m];
+            let v = Fpu::accumulate_force_long::<true>(&x, &mut f);
+            assert_eq!(v.to_bits(), value.to_bits(), "m = {m}");
+            assert_eq!(&f[..m], &f0[..], "m = {m}");
+            assert_eq!(&f[m..], &f1[..], "m = {m}");
         }
     }
 
