@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 OUT    ?= reproduction
 
-.PHONY: all install test test-rust test-python lint reproduce bench bench-smoke clean
+.PHONY: all install test test-rust test-python lint reproduce bench bench-deps bench-smoke clean
 
 all: test
 
@@ -34,10 +34,13 @@ lint: install
 reproduce: install
 	$(VENV)/bin/trigint reproduce all --out $(OUT)
 
-bench: install
+bench-deps: install
+	$(PY) -m pip install --quiet -e '.[test,bench]'
+
+bench: bench-deps
 	$(PY) benchmarks/run.py
 
-bench-smoke: install
+bench-smoke: bench-deps
 	$(PY) benchmarks/run.py --smoke
 
 clean:

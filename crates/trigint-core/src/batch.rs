@@ -194,10 +194,40 @@ unsafe fn run_block_avx2<P: Potential>(
     block.run(stop)
 }
 
+/// A zeroed buffer whose first element starts a cache line (64 bytes): with a multiple of 8
+/// lanes every row of a block starts one too, and wide vector loads never straddle two lines.
+#[derive(Default)]
+struct Aligned {
+    buf: Vec<f64>,
+    start: usize,
+    len: usize,
+}
+
+impl Aligned {
+    fn zeros(len: usize) -> Self {
+        let buf = vec![0.0; len + 8];
+        let start = buf.as_ptr().align_offset(64).min(8);
+        Aligned { buf, start, len }
+    }
+}
+
+impl std::ops::Deref for Aligned {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl std::ops::DerefMut for Aligned {
+    fn deref_mut(&mut self) -> &mut [f64] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
+}
+
 /// Per-lane numbers in coordinate-major order.
-fn transpose(rows: &[&[f64]], n: usize) -> Vec<f64> {
+fn transpose(rows: &[&[f64]], n: usize) -> Aligned {
     let lanes = rows.len();
-    let mut out = vec![0.0; n * lanes];
+    let mut out = Aligned::zeros(n * lanes);
     for (b, r) in rows.iter().enumerate() {
         for i in 0..n {
             out[i * lanes + b] = r[i];
@@ -217,22 +247,22 @@ struct Block<'a, P> {
     /// H* is H_ω for every lane (σ ≡ 1, ω̃ = ω): its sums are skipped and copied.
     plain_modified: bool,
     // coefficients, coordinate-major
-    omc: Vec<f64>,
-    two_omc: Vec<f64>,
-    h2_psi: Vec<f64>,
-    half_h2_psi: Vec<f64>,
-    phi: Vec<f64>,
-    inv_2h_chi: Vec<f64>,
-    h_chi: Vec<f64>,
-    modified_p: Vec<f64>,
-    modified_q: Vec<f64>,
+    omc: Aligned,
+    two_omc: Aligned,
+    h2_psi: Aligned,
+    half_h2_psi: Aligned,
+    phi: Aligned,
+    inv_2h_chi: Aligned,
+    h_chi: Aligned,
+    modified_p: Aligned,
+    modified_q: Aligned,
     fast: Vec<f64>,
     slow: Vec<f64>,
     /// Every lane has the same coefficients (one step size): rows are broadcast numbers.
     uniform: bool,
     // state
-    q: Vec<f64>,
-    p0: Vec<f64>,
+    q: Aligned,
+    p0: Aligned,
 }
 
 impl<'a, P: Potential> Block<'a, P> {
@@ -252,13 +282,13 @@ impl<'a, P: Potential> Block<'a, P> {
             .iter()
             .map(|&t| methods[t].coefficients.kernel())
             .collect();
-        let pick = |f: fn(&KernelCoefficients) -> &Vec<f64>| -> Vec<f64> {
+        let pick = |f: fn(&KernelCoefficients) -> &Vec<f64>| -> Aligned {
             transpose(
                 &kernels.iter().map(|k| f(k).as_slice()).collect::<Vec<_>>(),
                 n,
             )
         };
-        let rows = |v: &[f64]| -> Vec<f64> {
+        let rows = |v: &[f64]| -> Aligned {
             transpose(
                 &ids.iter()
                     .map(|&t| &v[t * n..(t + 1) * n])
@@ -375,10 +405,10 @@ impl<'a, P: Potential> Block<'a, P> {
         let mut q = std::mem::take(&mut self.q);
         let p0 = std::mem::take(&mut self.p0);
         let (mut d, mut p, mut f, mut x) = (
-            vec![0.0; len],
-            vec![0.0; len],
-            vec![0.0; len],
-            vec![0.0; len],
+            Aligned::zeros(len),
+            Aligned::zeros(len),
+            Aligned::zeros(len),
+            Aligned::zeros(len),
         );
         let mut u = vec![f64::NAN; lanes];
         self.evaluate(&q, &mut x, &mut f, &mut u, true)?;
