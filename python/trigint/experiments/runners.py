@@ -191,8 +191,15 @@ def run_perturbed(fig: dict) -> xr.Dataset:
                 "spread_from": ("panel", [float(p.get("spread_from", 0.0)) for p in panels])},
         attrs={"omega": omega, "method": repr(method), "energy": energy,
                "early_ratio_max": float(fig.get("early_ratio_max", 10.0)),
-               "panel_labels": "|".join(p.get("label", f"ω = {omega:g}, hω = {p['h_omega']}") for p in panels)},
+               "panel_labels": "|".join(p.get("label", f"ω = {omega:g}, hω = {_pretty(p['h_omega'])}")
+                                        for p in panels)},
     )
+
+
+def _pretty(expression) -> str:
+    """'2*pi/3' → '2π/3', 'sqrt(12)' → '√12', for labels."""
+    text = str(expression).replace("*", "").replace("pi", "π")
+    return text.replace("sqrt(", "√").replace(")", "") if "sqrt(" in text else text
 
 
 def run_scan(fig: dict) -> xr.Dataset:
