@@ -12,36 +12,12 @@ fn main() {
     let track = a.get(4).map(|s| s == "1").unwrap_or(true);
     let block: usize = a.get(5).and_then(|s| s.parse().ok()).unwrap_or(0);
     let (m, w) = (3usize, 50.0f64);
-    let h = 2.0 * std::f64::consts::PI / 3.0 / w;
-    let omega: Vec<f64> = (0..2 * m).map(|i| if i < m { 0.0 } else { w }).collect();
-    let sinc = |x: f64| if x == 0.0 { 1.0 } else { x.sin() / x };
+    let (coefficients, layout, _, _) =
+        trigint_core::fixtures::fpu_method_b(m, w, 2.0 * std::f64::consts::PI / 3.0 / w);
     let method = TrajectoryMethod {
-        coefficients: MethodCoefficients {
-            h,
-            one_minus_cos: omega
-                .iter()
-                .map(|x| 2.0 * (0.5 * h * x).sin().powi(2))
-                .collect(),
-            sin: omega.iter().map(|x| (h * x).sin()).collect(),
-            chi: omega.iter().map(|x| sinc(h * x)).collect(),
-            psi: omega.iter().map(|x| sinc(h * x)).collect(),
-            phi: vec![1.0; 2 * m],
-        },
-        modified_p: omega
-            .iter()
-            .map(|&x| if x == 0.0 { 0.0 } else { 1.0 })
-            .collect(),
-        modified_q: omega.iter().map(|x| x * x).collect(),
-    };
-    let layout = EnergyLayout {
-        omega2: omega.iter().map(|x| x * x).collect(),
-        modified_p: method.modified_p.clone(),
-        modified_q: method.modified_q.clone(),
-        block: omega
-            .iter()
-            .map(|&x| if x == 0.0 { 0 } else { 1 })
-            .collect(),
-        n_blocks: 1,
+        coefficients,
+        modified_p: layout.modified_p.clone(),
+        modified_q: layout.modified_q.clone(),
     };
     let mut q0 = vec![0.0; count * 2 * m];
     let mut p0 = vec![0.0; count * 2 * m];

@@ -15,40 +15,9 @@ fn main() {
     } else {
         Form::TwoStep
     };
-    let (m, w) = (3usize, 50.0f64);
-    let h = 2.0 * std::f64::consts::PI / 3.0 / w;
-    let omega: Vec<f64> = (0..2 * m).map(|i| if i < m { 0.0 } else { w }).collect();
-    let sinc = |x: f64| if x == 0.0 { 1.0 } else { x.sin() / x };
-    let co = MethodCoefficients {
-        h,
-        one_minus_cos: omega
-            .iter()
-            .map(|x| 2.0 * (0.5 * h * x).sin().powi(2))
-            .collect(),
-        sin: omega.iter().map(|x| (h * x).sin()).collect(),
-        chi: omega.iter().map(|x| sinc(h * x)).collect(),
-        psi: omega.iter().map(|x| sinc(h * x)).collect(),
-        phi: vec![1.0; 2 * m],
-    };
-    let layout = EnergyLayout {
-        omega2: omega.iter().map(|x| x * x).collect(),
-        modified_p: omega
-            .iter()
-            .map(|&x| if x == 0.0 { 0.0 } else { 1.0 })
-            .collect(),
-        modified_q: omega.iter().map(|x| x * x).collect(),
-        block: omega
-            .iter()
-            .map(|&x| if x == 0.0 { 0 } else { 1 })
-            .collect(),
-        n_blocks: 1,
-    };
-    let mut q0 = vec![0.0; 2 * m];
-    let mut p0 = vec![0.0; 2 * m];
-    q0[0] = 1.0;
-    p0[0] = 1.0;
-    q0[m] = 1.0 / w;
-    p0[m] = 1.0;
+    let m = 3usize;
+    let (co, layout, q0, p0) =
+        trigint_core::fixtures::fpu_method_b(m, 50.0, 2.0 * std::f64::consts::PI / 3.0 / 50.0);
     let spec = RunSpec {
         n_steps: n,
         save_every: n,

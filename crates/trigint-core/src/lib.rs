@@ -9,6 +9,8 @@ pub mod coefficients;
 pub mod driver;
 pub mod energy;
 pub mod error;
+#[doc(hidden)]
+pub mod fixtures;
 pub mod potential;
 pub mod stepper;
 
