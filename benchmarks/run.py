@@ -209,13 +209,14 @@ def plot(rows: list[dict], path: Path) -> None:
     plt = _pyplot()
     timed = [r for r in rows if "unit" not in r and np.isfinite(r["ns"])]
     labels = [(r["case"] or "") + "\n" + r["impl"] if r["case"] else r["impl"] for r in timed]
-    fig, ax = plt.subplots(figsize=(9, 0.32 * len(timed) + 1.2))
+    fig, ax = plt.subplots(figsize=(11, 0.32 * len(timed) + 1.4))
     colors = ["tab:blue" if r["impl"].startswith("trigint") else "0.6" for r in timed]
     ax.barh(range(len(timed)), [r["ns"] for r in timed], color=colors)
     ax.set_yticks(range(len(timed)), [lab.replace("\n", " | ") for lab in labels], fontsize=6)
     ax.invert_yaxis()
     ax.set_xscale("log")
-    ax.set_xlabel("ns per (trajectory-)step (log scale); blue: trigint, gray: C, Numba, NumPy")
+    ax.set_xlabel("ns per (trajectory-)step, log scale (blue: trigint; gray: C, Numba, NumPy)", fontsize=8)
+    ax.set_title(f"FPU, method B, hω = 2π/3 — {cpu_model()}, {dt.date.today().isoformat()}", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=150)
     plt.close(fig)
