@@ -297,13 +297,6 @@ impl<'a, P: Potential> Block<'a, P> {
             )
         };
         let lanes = ids.len();
-        let mask = |slow: bool| -> Vec<f64> {
-            layout
-                .block
-                .iter()
-                .map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 })
-                .collect()
-        };
         let plain_modified = ids.iter().all(|&t| {
             let m = &methods[t];
             (0..n).all(|i| {
@@ -358,8 +351,8 @@ impl<'a, P: Potential> Block<'a, P> {
                     .collect::<Vec<_>>(),
                 n,
             ),
-            fast: mask(false),
-            slow: mask(true),
+            fast: layout.mask(false),
+            slow: layout.mask(true),
             q: rows(q0),
             p0: rows(p0),
         }

@@ -72,6 +72,15 @@ impl EnergyLayout {
         Ok(())
     }
 
+    /// 1.0 on the slow coordinates (block 0) and 0.0 elsewhere when `slow`, the reverse otherwise:
+    /// the masks that let the energy sums run without branches.
+    pub fn mask(&self, slow: bool) -> Vec<f64> {
+        self.block
+            .iter()
+            .map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 })
+            .collect()
+    }
+
     /// True when the modified oscillatory energy is the plain one (σ ≡ 1, ω̃ = ω),
     /// so the kernel can copy it instead of summing it again.
     pub fn modified_is_plain(&self) -> bool {
@@ -166,13 +175,6 @@ pub struct Recorder<'a, S> {
 impl<'a, S: Storage> Recorder<'a, S> {
     pub fn new(layout: &'a EnergyLayout, track: bool, save_every: u64, last_step: u64) -> Self {
         let n = layout.dim();
-        let mask = |slow: bool| -> Vec<f64> {
-            layout
-                .block
-                .iter()
-                .map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 })
-                .collect()
-        };
         let c = layout.n_channels();
         let l = layout.n_blocks;
         let n_samples = (last_step / save_every.max(1) + 2).min(1 << 20) as usize;
@@ -180,8 +182,8 @@ impl<'a, S: Storage> Recorder<'a, S> {
             layout,
             w: Weights {
                 omega2: S::from_slice(&layout.omega2),
-                fast: S::from_slice(&mask(false)),
-                slow: S::from_slice(&mask(true)),
+                fast: S::from_slice(&layout.mask(false)),
+                slow: S::from_slice(&layout.mask(true)),
                 modified_p: S::from_slice(&layout.modified_p),
                 modified_q: S::from_slice(&layout.modified_q),
             },
