@@ -296,7 +296,6 @@ def _assemble(problem, method, batch, names, spans, results, sink, save_every) -
     }
     if save_every is not None:
         width = _max_samples(batch, save_every)
-        arrays.update(_padded_samples([], width, n, c))
         arrays.update({"step": np.full((count, width), -1, dtype=np.int64), "q": np.full((count, width, n), np.nan),
                        "p": np.full((count, width, n), np.nan), "energies": np.full((count, width, c), np.nan)})
     if sink is not None:

@@ -68,11 +68,6 @@ def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
     return written
 
 
-def max_abs(values) -> float:
-    """max |x| of an array-like (a helper for axis limits)."""
-    return float(np.max(np.abs(np.asarray(values))))
-
-
 # --- the paper's figures -------------------------------------------------------------------
 
 def figure(ds):
