@@ -26,7 +26,14 @@ from .methods import (
     StormerVerlet,
     Trigonometric,
 )
-from .potentials import FPUPotential, PolynomialPotential, Potential, PythonPotential
+from .potentials import (
+    ChainPotential,
+    ExpressionPotential,
+    FPUPotential,
+    PolynomialPotential,
+    Potential,
+    PythonPotential,
+)
 from .problem import OscillatoryProblem
 from .solution import Solution
 
@@ -35,7 +42,9 @@ __version__ = "0.1.0"
 __all__ = [
     "IMEX",
     "AlphaMethod",
+    "ChainPotential",
     "Coefficients",
+    "ExpressionPotential",
     "FPUPotential",
     "Method",
     "ModifiedTrigonometric",

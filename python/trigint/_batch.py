@@ -7,8 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _core
-from .energies import layout
+from . import _native
 from .methods import Method
 from .problem import OscillatoryProblem
 
@@ -21,11 +20,14 @@ class Batch:
     p0: np.ndarray  # (B, n)
     h: np.ndarray  # (B,)
     n_steps: np.ndarray  # (B,) int64
-    one_minus_cos: np.ndarray  # (B, n)
-    sin: np.ndarray
+    #: the method's numbers per trajectory, (B, n) each, by the core's row names
+    #: (``_native.METHOD_ROWS``), in the user's coordinate order
+    one_minus_cos: np.ndarray
     chi: np.ndarray
     psi: np.ndarray
     phi: np.ndarray
+    psi_over_chi: np.ndarray
+    sin2_over_h_chi: np.ndarray
     modified_p: np.ndarray
     modified_q: np.ndarray
 
@@ -89,9 +91,9 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
-    fields = ("one_minus_cos", "sin", "chi", "psi", "phi", "modified_p", "modified_q")
+    fields = _native.METHOD_ROWS
     per = {k: np.empty((count, n)) for k in fields}
-    cache: dict[float, tuple] = {}
+    cache: dict[float, dict] = {}
     fast = problem.omega > 0
     for t, ht in enumerate(h_arr):
         if ht not in cache:
@@ -99,24 +101,37 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
                 co = method.coefficients(float(ht), problem.omega)
             except ValueError as exc:
                 raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
-            w = layout(problem, co)
-            cache[ht] = (co.one_minus_cos, co.sin, co.chi, co.psi, co.phi,
-                         np.where(fast, w["modified_p"], 0.0), np.where(fast, w["modified_q"], 0.0))
-        for k, v in zip(fields, cache[ht], strict=True):
-            per[k][t] = v
+            cache[ht] = _native.method_rows(co, fast)
+        for k in fields:
+            per[k][t] = cache[ht][k]
     return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, **per)
 
 
-def run_chunk(potential_spec: tuple, problem_layout: dict, rows: dict, save_every: int | None, track: bool,
-              threads: int | None = None, block: int = 0) -> dict:
+def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, tuple | None]:
+    """What every chunk of a problem's batch needs: the potential's and the layout's
+    descriptions in the core's coordinate order, and the permutation (None if identity)."""
+    lay = _native.core_layout(problem)
+    order = None if lay.identity else (lay.perm, lay.inverse)
+    return _native.potential_spec(problem.potential, lay), lay.spec, order
+
+
+def run_chunk(potential_spec: dict, layout_spec: dict, order: tuple | None, rows: dict,
+              save_every: int | None, track: bool, threads: int | None = None,
+              form: str = "two-step") -> dict:
     """Runs one chunk of trajectories in the core. Module-level and free of local state, so
-    that it can be sent to executors and Dask workers."""
-    out = _core.integrate_batch(
-        potential_spec,
-        (rows["h"], rows["one_minus_cos"], rows["sin"], rows["chi"], rows["psi"], rows["phi"],
-         rows["modified_p"], rows["modified_q"]),
-        (problem_layout["omega2"], np.zeros_like(problem_layout["omega2"]), np.zeros_like(problem_layout["omega2"]),
-         [int(b) for b in problem_layout["block"]], int(problem_layout["n_blocks"])),
-        rows["q0"], rows["p0"], [int(s) for s in rows["n_steps"]], save_every, track, block, threads,
+    that it can be sent to executors and Dask workers. States come back in the user's order."""
+
+    def to_core(x):
+        return np.ascontiguousarray(x if order is None else x[..., order[0]])
+
+    methods = {k: to_core(np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
+    methods["h"] = np.ascontiguousarray(rows["h"], dtype=float)
+    out = _native.integrate_batch(
+        potential_spec, layout_spec, methods, to_core(rows["q0"]), to_core(rows["p0"]),
+        rows["n_steps"], save_every, form, track, threads,
     )
+    if order is not None and "samples" in out:
+        for s in out["samples"]:
+            s["q"] = np.ascontiguousarray(s["q"][..., order[1]])
+            s["p"] = np.ascontiguousarray(s["p"][..., order[1]])
     return out

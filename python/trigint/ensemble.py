@@ -19,9 +19,10 @@ import warnings
 import numpy as np
 import xarray as xr
 
-from ._batch import prepare, run_chunk
+from ._batch import core_arguments, prepare, run_chunk
+from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint
-from .energies import energy_names, layout
+from .energies import energy_names
 from .methods import Method, resolve_method
 from .problem import OscillatoryProblem
 
@@ -91,9 +92,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     chunk = _chunk_size(chunk_size, count, client, threads)
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
-    w = layout(problem, None)
-    spec = problem.potential._spec(problem.dim)
-    args = (spec, dict(omega2=w["omega2"], block=w["block"], n_blocks=w["n_blocks"]))
+    args = core_arguments(problem)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
                   threads=threads)
     sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
@@ -271,8 +270,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
                        "energies": ((count, width, c), "float64", np.nan)})
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
-        "method": repr(method), "coefficients": np.stack([batch.one_minus_cos, batch.sin, batch.chi, batch.psi,
-                                                          batch.phi, batch.modified_p, batch.modified_q]),
+        "method": repr(method), "coefficients": np.stack([getattr(batch, k) for k in METHOD_ROWS]),
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track), "chunk_size": chunk,
     })
@@ -281,7 +279,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
 
 def _potential_key(potential) -> str:
     spec = potential._spec(potential.dim or 0)
-    if spec[0] == "python":  # callables: by name, the best a fingerprint can do
+    if spec["kind"] == "python":  # callables: by name, the best a fingerprint can do
         names = (getattr(f, "__qualname__", "?") for f in (potential._value, potential._gradient))
         return "python:" + ":".join(names)
     return repr(spec)

@@ -9,8 +9,8 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from . import _core
-from .energies import energy_names, layout
+from . import _native
+from .energies import energy_names
 from .methods import Method, _check_h, resolve_method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
@@ -92,17 +92,12 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
             f"{MAX_SAMPLE_BYTES >> 30} GiB; increase save_every"
         )
     co = method.coefficients(h, problem.omega)
-    w = layout(problem, co)
     python_potential = isinstance(problem.potential, PythonPotential)
     every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
     callback, close = _progress(progress, n_steps, python_potential)
     try:
-        out = _core.integrate(
-            problem.potential._spec(problem.dim),
-            (h, co.one_minus_cos, co.sin, co.chi, co.psi, co.phi),
-            (w["omega2"], w["modified_p"], w["modified_q"], [int(b) for b in w["block"]], w["n_blocks"]),
-            q0, p0, n_steps, save_every, form, bool(track_energies), every, callback,
-        )
+        out = _native.integrate(problem, co, q0, p0, n_steps, save_every, form,
+                                bool(track_energies), every, callback)
     finally:
         close()
     if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
@@ -112,17 +107,18 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
 
 def _solution(problem, method, h, n_steps, out) -> Solution:
     names = energy_names(problem.n_blocks)
-    steps = out["steps"].astype(np.int64)
+    samples = out["samples"]
+    steps = samples["steps"].astype(np.int64)
     t = steps * h
     energies = xr.Dataset(
-        {name: ("t", out["energies"][:, k]) for k, name in enumerate(names)},
+        {name: ("t", samples["energies"][:, k]) for k, name in enumerate(names)},
         coords={"t": t, "step": ("t", steps)},
         attrs={"method": repr(method), "h": h},
     )
     if out["status"] != "completed":
         warnings.warn(out["message"], RuntimeWarning, stacklevel=3)
     return Solution(
-        t=t, q=out["q"], p=out["p"], steps=steps, energies=energies,
+        t=t, q=samples["q"], p=samples["p"], steps=steps, energies=energies,
         max_deviation=dict(zip(names, out["max_deviation"].tolist(), strict=True)),
         initial_energies=dict(zip(names, out["initial_energies"].tolist(), strict=True)),
         h=h, n_steps=int(out["steps_done"]), n_steps_requested=n_steps,

@@ -1,34 +1,43 @@
-//! Per-coordinate method coefficients.
+//! The per-coordinate numbers of a method, and the products the kernels read.
 //!
 //! Every method of the paper is the recursion (trigo-mod),
 //!
 //!   q_{n+1} − 2 cos(hω̃) q_n + q_{n−1} = h² ψ g(φ q_n),   2h χ p_n = q_{n+1} − q_{n−1},
 //!
-//! with per-coordinate numbers c = cos(hω̃), s = sin(hω̃), χ, ψ, φ (ω̃ = ω and χ = sinc(hω)
-//! for the trigonometric methods (trigo)). The Python layer evaluates the filter functions
-//! and hands these arrays over; here they are checked and turned into the products the
-//! kernels use, so that a method is data and the loop is one.
+//! with per-coordinate numbers c = cos(hω̃), χ, ψ, φ (ω̃ = ω and χ = sinc(hω) for the
+//! trigonometric methods (trigo)). The Python layer evaluates the filter functions and hands
+//! these arrays over, one [`MethodCoefficients`] per trajectory; here they are checked and turned
+//! into the products the kernels use ([`Coef`]), one number per lane, so that a method is data
+//! and the loop is one.
 //!
-//! The kernels take 1 − c = 2 sin²(½hω̃) rather than c: it is known to full relative
-//! precision, so the summed form of the recursion (see `stepper`) has no systematic phase
-//! error from the rounding of cos(hω̃), which for small hω̃ is amplified by 1/sin(hω̃).
+//! The kernels take 1 − c = 2 sin²(½hω̃) rather than c: it is known to full relative precision,
+//! so the summed form of the recursion has no systematic phase error from the rounding of
+//! cos(hω̃), which for small hω̃ is amplified by 1/sin(hω̃).
 
 use crate::error::{CoreError, CoreResult};
+use crate::real::Real;
+use crate::shape::{Shape, Storage};
 
-/// The method numbers per coordinate, as evaluated at hω̃_i.
-#[derive(Debug, Clone)]
+/// One trajectory's method numbers per coordinate (in the kernels' coordinate order), as
+/// evaluated at hω̃_i; slow coordinates carry Störmer–Verlet's (c = χ = ψ = φ = 1).
+#[derive(Debug, Clone, PartialEq)]
 pub struct MethodCoefficients {
     pub h: f64,
     /// 1 − cos(hω̃_i) = 2 sin²(½hω̃_i), to full relative precision.
     pub one_minus_cos: Vec<f64>,
-    /// sin(hω̃_i), used by the one-step form only.
-    pub sin: Vec<f64>,
-    /// χ(hω̃_i); sinc(hω_i) for trigonometric methods. Must not vanish.
+    /// χ(hω̃_i); sinc(hω_i) for the trigonometric methods. The two-step form needs χ ≠ 0.
     pub chi: Vec<f64>,
     /// ψ(hω̃_i)
     pub psi: Vec<f64>,
     /// φ(hω̃_i)
     pub phi: Vec<f64>,
+    /// ψ/χ, with its limit where χ = 0 (one-step form).
+    pub psi_over_chi: Vec<f64>,
+    /// sin²(hω̃_i)/(hχ), with its limit where χ = 0 (one-step form; ω sin(hω) for (trigo)).
+    pub sin2_over_h_chi: Vec<f64>,
+    /// Weights of ½p_i² and ½q_i² in the modified oscillatory energy (mod-energies).
+    pub modified_p: Vec<f64>,
+    pub modified_q: Vec<f64>,
 }
 
 impl MethodCoefficients {
@@ -37,41 +46,34 @@ impl MethodCoefficients {
         self.one_minus_cos.len()
     }
 
-    /// Checks lengths, finiteness and χ ≠ 0.
-    pub fn validate(&self) -> CoreResult<()> {
+    fn rows(&self) -> [(&'static str, &Vec<f64>); 8] {
+        [
+            ("one_minus_cos", &self.one_minus_cos),
+            ("chi", &self.chi),
+            ("psi", &self.psi),
+            ("phi", &self.phi),
+            ("psi_over_chi", &self.psi_over_chi),
+            ("sin2_over_h_chi", &self.sin2_over_h_chi),
+            ("modified_p", &self.modified_p),
+            ("modified_q", &self.modified_q),
+        ]
+    }
+
+    /// Checks the step size, the lengths, finiteness and, for the two-step form, χ ≠ 0.
+    pub fn validate(&self, n: usize, two_step: bool) -> CoreResult<()> {
         if !(self.h.is_finite() && self.h > 0.0) {
             return Err(CoreError::invalid(
                 "h",
                 format!("must be finite and > 0, got {}", self.h),
             ));
         }
-        let n = self.dim();
-        if n == 0 {
-            return Err(CoreError::invalid(
-                "coefficients",
-                "need at least one coordinate",
-            ));
-        }
-        for (name, v) in [
-            ("sin", &self.sin),
-            ("chi", &self.chi),
-            ("psi", &self.psi),
-            ("phi", &self.phi),
-        ] {
+        for (name, v) in self.rows() {
             if v.len() != n {
                 return Err(CoreError::invalid(
                     "coefficients",
-                    format!("`{name}` has {} entries, `one_minus_cos` has {n}", v.len()),
+                    format!("`{name}` has {} entries for {n} coordinates", v.len()),
                 ));
             }
-        }
-        for (name, v) in [
-            ("one_minus_cos", &self.one_minus_cos),
-            ("sin", &self.sin),
-            ("chi", &self.chi),
-            ("psi", &self.psi),
-            ("phi", &self.phi),
-        ] {
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
                 return Err(CoreError::invalid(
                     "coefficients",
@@ -79,66 +81,125 @@ impl MethodCoefficients {
                 ));
             }
         }
-        if let Some(i) = self.chi.iter().position(|&x| x == 0.0) {
-            return Err(CoreError::invalid(
-                "coefficients",
-                format!("chi vanishes at coordinate {i}: the momentum p_n is undefined there"),
-            ));
+        if two_step {
+            if let Some(i) = self.chi.iter().position(|&x| x == 0.0) {
+                return Err(CoreError::invalid(
+                    "coefficients",
+                    format!(
+                        "chi vanishes at coordinate {i}: the two-step momentum \
+                         p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined there"
+                    ),
+                ));
+            }
         }
         Ok(())
     }
+}
 
-    /// The kernel-ready products; call after [`validate`](Self::validate).
-    pub fn kernel(&self) -> KernelCoefficients {
-        let h = self.h;
-        let n = self.dim();
-        let mut k = KernelCoefficients {
-            n,
-            phi_is_identity: self.phi.iter().all(|&x| x == 1.0),
-            one_minus_cos: self.one_minus_cos.clone(),
-            two_one_minus_cos: Vec::with_capacity(n),
-            h2_psi: Vec::with_capacity(n),
-            half_h2_psi: Vec::with_capacity(n),
-            phi: self.phi.clone(),
-            inv_2h_chi: Vec::with_capacity(n),
-            h_chi: Vec::with_capacity(n),
-            p_from_q: Vec::with_capacity(n),
-            half_h_psi0: Vec::with_capacity(n),
-            half_h_psi1: Vec::with_capacity(n),
-        };
-        for i in 0..n {
-            let (omc, s, chi, psi) = (self.one_minus_cos[i], self.sin[i], self.chi[i], self.psi[i]);
-            let c = 1.0 - omc;
-            k.two_one_minus_cos.push(2.0 * omc);
-            k.h2_psi.push(h * h * psi);
-            k.half_h2_psi.push(0.5 * h * h * psi);
-            k.inv_2h_chi.push(1.0 / (2.0 * h * chi));
-            k.h_chi.push(h * chi);
-            // One-step form: p_{n+1} = −s²/(hχ) q_n + c p_n + ½h (cψ/χ g_n + ψ/χ g_{n+1});
-            // for χ = sinc(hω) this is −ω sin(hω) q_n + … [GNI XIII (2.7)–(2.9)].
-            k.p_from_q.push(-(s * s) / (h * chi));
-            k.half_h_psi0.push(0.5 * h * c * psi / chi);
-            k.half_h_psi1.push(0.5 * h * psi / chi);
+/// The products the kernels read, one number per lane: per-lane scalars for the slow
+/// coordinates (Störmer–Verlet) and per-coordinate rows for the oscillatory ones.
+#[derive(Clone)]
+pub struct Coef<L, S> {
+    /// h, h², ½h², 1/(2h), ½h per lane: the slow coordinates' numbers.
+    pub h: L,
+    pub h2: L,
+    pub half_h2: L,
+    pub inv_2h: L,
+    pub half_h: L,
+    /// 1 − c and 2(1 − c)
+    pub omc: S,
+    pub two_omc: S,
+    /// h²ψ and ½h²ψ
+    pub h2_psi: S,
+    pub half_h2_psi: S,
+    pub phi: S,
+    /// 1/(2hχ) and hχ
+    pub inv_2h_chi: S,
+    pub h_chi: S,
+    /// One-step form: −sin²(hω̃)/(hχ), ½h c ψ/χ and ½h ψ/χ [GNI XIII (2.7)–(2.9)].
+    pub p_from_q: S,
+    pub half_h_psi0: S,
+    pub half_h_psi1: S,
+    /// φ ≡ 1 in every lane: the force is evaluated at q_n itself, in one pass with U(q_n).
+    pub phi_is_identity: bool,
+}
+
+/// The energy weights in the kernels' storage: ω_i² and the modified energy's per-lane weights.
+#[derive(Clone)]
+pub struct Weights<L, S> {
+    pub omega2: S,
+    pub modified_p: S,
+    pub modified_q: S,
+    /// H* is H_ω in every lane (σ ≡ 1, ω̃ = ω): its sums are skipped and the value copied.
+    pub plain_modified: bool,
+    _lane: std::marker::PhantomData<L>,
+}
+
+/// Lane b's number for coordinate i, from lane b's method (lanes beyond `methods` repeat the
+/// last one: they are padding that is never reported).
+fn lanes<L: Real>(methods: &[&MethodCoefficients], f: impl Fn(&MethodCoefficients) -> f64) -> L {
+    let mut v = L::zero();
+    for b in 0..L::LANES {
+        v.set_lane(b, f(methods[b.min(methods.len() - 1)]));
+    }
+    v
+}
+
+fn row<L: Real, Sh: Shape>(
+    sh: &Sh,
+    methods: &[&MethodCoefficients],
+    f: impl Fn(&MethodCoefficients, usize) -> f64,
+) -> Sh::S<L> {
+    let mut s = Sh::S::<L>::filled(sh.n(), L::zero());
+    for (i, x) in s.get_mut().iter_mut().enumerate() {
+        *x = lanes(methods, |m| f(m, i));
+    }
+    s
+}
+
+impl<L: Real, S: Storage<L>> Coef<L, S> {
+    /// The kernel numbers of up to `L::LANES` trajectories (validated beforehand).
+    pub fn new<Sh: Shape<S<L> = S>>(sh: &Sh, methods: &[&MethodCoefficients]) -> Self {
+        let c = |m: &MethodCoefficients, i: usize| 1.0 - m.one_minus_cos[i];
+        Coef {
+            h: lanes(methods, |m| m.h),
+            h2: lanes(methods, |m| m.h * m.h),
+            half_h2: lanes(methods, |m| 0.5 * m.h * m.h),
+            inv_2h: lanes(methods, |m| 1.0 / (2.0 * m.h)),
+            half_h: lanes(methods, |m| 0.5 * m.h),
+            omc: row::<L, Sh>(sh, methods, |m, i| m.one_minus_cos[i]),
+            two_omc: row::<L, Sh>(sh, methods, |m, i| 2.0 * m.one_minus_cos[i]),
+            h2_psi: row::<L, Sh>(sh, methods, |m, i| m.h * m.h * m.psi[i]),
+            half_h2_psi: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * m.h * m.psi[i]),
+            phi: row::<L, Sh>(sh, methods, |m, i| m.phi[i]),
+            inv_2h_chi: row::<L, Sh>(sh, methods, |m, i| 1.0 / (2.0 * m.h * m.chi[i])),
+            h_chi: row::<L, Sh>(sh, methods, |m, i| m.h * m.chi[i]),
+            p_from_q: row::<L, Sh>(sh, methods, |m, i| -m.sin2_over_h_chi[i]),
+            half_h_psi0: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * c(m, i) * m.psi_over_chi[i]),
+            half_h_psi1: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * m.psi_over_chi[i]),
+            phi_is_identity: methods
+                .iter()
+                .all(|m| m.phi[sh.ns()..].iter().all(|&x| x == 1.0)),
         }
-        k
     }
 }
 
-/// Products of the method numbers that the stepping kernels read.
-#[derive(Debug, Clone)]
-pub struct KernelCoefficients {
-    pub n: usize,
-    /// φ ≡ 1: the force is evaluated at q_n itself and shares its pass with U(q_n).
-    pub phi_is_identity: bool,
-    /// 1 − c and 2(1 − c)
-    pub one_minus_cos: Vec<f64>,
-    pub two_one_minus_cos: Vec<f64>,
-    pub h2_psi: Vec<f64>,
-    pub half_h2_psi: Vec<f64>,
-    pub phi: Vec<f64>,
-    pub inv_2h_chi: Vec<f64>,
-    pub h_chi: Vec<f64>,
-    pub p_from_q: Vec<f64>,
-    pub half_h_psi0: Vec<f64>,
-    pub half_h_psi1: Vec<f64>,
+impl<L: Real, S: Storage<L>> Weights<L, S> {
+    pub fn new<Sh: Shape<S<L> = S>>(
+        sh: &Sh,
+        omega2: &[f64],
+        methods: &[&MethodCoefficients],
+    ) -> Self {
+        let ns = sh.ns();
+        let plain_modified = methods
+            .iter()
+            .all(|m| (ns..sh.n()).all(|i| m.modified_p[i] == 1.0 && m.modified_q[i] == omega2[i]));
+        Weights {
+            omega2: row::<L, Sh>(sh, methods, |_, i| omega2[i]),
+            modified_p: row::<L, Sh>(sh, methods, |m, i| m.modified_p[i]),
+            modified_q: row::<L, Sh>(sh, methods, |m, i| m.modified_q[i]),
+            plain_modified,
+            _lane: std::marker::PhantomData,
+        }
+    }
 }

@@ -1,12 +1,12 @@
-//! Energies as per-coordinate quadratic forms plus U, and the streaming recorder that
-//! tracks them at every step.
+//! The energies: their forms per coordinate (written once, summed by every kernel), the channel
+//! table, the running extremes that give max |E(t_n) − E(0)|, and the saved samples.
 //!
-//! Channels, in this order (paper §2.1 and (mod-energies)):
-//! `total`, `oscillatory` (H_ω = Σ_{j≥1} I_j), `slow` (½|p₀|² + U), `modified_oscillatory`
-//! (H*_ω = Σ_i ½(a_i p_i² + b_i q_i²)), then the per-block oscillatory energies I_1 … I_ℓ.
+//! Channels, in this order (paper §2.1 and (mod-energies)): `total` (H), `oscillatory`
+//! (H_ω = Σ_{j≥1} I_j), `slow` (½|p₀|² + U), `modified_oscillatory` (H*_ω or H*_ω̃), then the
+//! per-block oscillatory energies I_1 … I_ℓ. [`channel_names`] is the one list both the core and
+//! the Python layer read.
 
-use crate::error::{CoreError, CoreResult};
-use crate::stepper::Storage;
+use crate::real::Real;
 
 pub const TOTAL: usize = 0;
 pub const OSCILLATORY: usize = 1;
@@ -15,121 +15,256 @@ pub const MODIFIED: usize = 3;
 /// Index of the first per-block channel (I_1).
 pub const FIRST_BLOCK: usize = 4;
 
-/// Weights of the energy quadratic forms.
-#[derive(Debug, Clone)]
-pub struct EnergyLayout {
-    /// ω_i², the weight of ½q_i² in I_j.
-    pub omega2: Vec<f64>,
-    /// Weight of ½p_i² in the modified oscillatory energy (0 on slow coordinates).
-    pub modified_p: Vec<f64>,
-    /// Weight of ½q_i² in the modified oscillatory energy (0 on slow coordinates).
-    pub modified_q: Vec<f64>,
-    /// Block of coordinate i: 0 is slow, 1..=ℓ the oscillatory blocks.
-    pub block: Vec<usize>,
-    /// ℓ, the number of oscillatory blocks.
-    pub n_blocks: usize,
+/// The channel names in output order for ℓ oscillatory blocks.
+pub fn channel_names(n_blocks: usize) -> Vec<String> {
+    let mut names: Vec<String> = ["total", "oscillatory", "slow", "modified_oscillatory"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    names.extend((1..=n_blocks).map(|j| format!("oscillatory_{j}")));
+    names
 }
 
-impl EnergyLayout {
-    pub fn dim(&self) -> usize {
-        self.omega2.len()
-    }
-
-    pub fn n_channels(&self) -> usize {
-        FIRST_BLOCK + self.n_blocks
-    }
-
-    pub fn validate(&self, n: usize) -> CoreResult<()> {
-        for (name, len) in [
-            ("omega2", self.omega2.len()),
-            ("modified_p", self.modified_p.len()),
-            ("modified_q", self.modified_q.len()),
-            ("block", self.block.len()),
-        ] {
-            if len != n {
-                return Err(CoreError::invalid(
-                    "energy layout",
-                    format!("`{name}` has {len} entries for {n} coordinates"),
-                ));
-            }
-        }
-        if let Some(i) = self.block.iter().position(|&b| b > self.n_blocks) {
-            return Err(CoreError::invalid(
-                "energy layout",
-                format!(
-                    "coordinate {i} is in block {} but there are {} blocks",
-                    self.block[i], self.n_blocks
-                ),
-            ));
-        }
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        if !(finite(&self.omega2) && finite(&self.modified_p) && finite(&self.modified_q)) {
-            return Err(CoreError::invalid(
-                "energy layout",
-                "weights must be finite",
-            ));
-        }
-        Ok(())
-    }
-
-    /// 1.0 on the slow coordinates (block 0) and 0.0 elsewhere when `slow`, the reverse otherwise:
-    /// the masks that let the energy sums run without branches.
-    pub fn mask(&self, slow: bool) -> Vec<f64> {
-        self.block
-            .iter()
-            .map(|&b| if (b == 0) == slow { 1.0 } else { 0.0 })
-            .collect()
-    }
-
-    /// True when the modified oscillatory energy is the plain one (σ ≡ 1, ω̃ = ω),
-    /// so the kernel can copy it instead of summing it again.
-    pub fn modified_is_plain(&self) -> bool {
-        (0..self.dim()).all(|i| {
-            let slow = self.block[i] == 0;
-            let (a, b) = (self.modified_p[i], self.modified_q[i]);
-            if slow {
-                a == 0.0 && b == 0.0
-            } else {
-                a == 1.0 && b == self.omega2[i]
-            }
-        })
-    }
-
-    /// All channels at one state, straightforwardly (the streaming recorder computes the same
-    /// sums branch-free; this is the plain version for checks).
-    pub fn evaluate(&self, q: &[f64], p: &[f64], u: f64) -> Vec<f64> {
-        let mut blocks = vec![0.0; self.n_blocks + 1];
-        let mut out = vec![0.0; self.n_channels()];
-        let mut modified = 0.0;
-        for i in 0..q.len() {
-            let (qi, pi) = (q[i], p[i]);
-            blocks[self.block[i]] += 0.5 * (pi * pi + self.omega2[i] * (qi * qi));
-            modified += 0.5 * (self.modified_p[i] * (pi * pi) + self.modified_q[i] * (qi * qi));
-        }
-        let oscillatory: f64 = blocks[1..].iter().sum();
-        out[TOTAL] = oscillatory + (blocks[0] + u);
-        out[OSCILLATORY] = oscillatory;
-        out[SLOW] = blocks[0] + u;
-        out[MODIFIED] = modified;
-        out[FIRST_BLOCK..].copy_from_slice(&blocks[1..]);
-        out
-    }
-}
-
-/// Whether every entry is finite: an OR over the exponent bits, which vectorizes (a floating-point
-/// sum would be a sequential chain of additions).
+/// The sum of the first `m` ≤ 8 partial sums in a fixed tree: ((p0+p1)+(p2+p3))+((p4+p5)+(p6+p7)),
+/// absent parts left out. With [`pairwise!`] this is the one summation order of the kernels: the
+/// k-th term of a range goes to partial sum k mod 8, each partial sum adds its terms in order,
+/// and the tree combines them. It vectorizes (eight independent chains) and never depends on how
+/// the work is split between lanes, bundles or threads.
 #[inline(always)]
-pub fn all_finite(x: &[f64]) -> bool {
-    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
-    let mut bad = 0u64;
-    for &v in x {
-        bad |= u64::from(v.to_bits() & EXPONENT == EXPONENT);
+pub fn tree<L: Real>(p: &[L; 8], m: usize) -> L {
+    // The levels written out (a loop over them is not unrolled, even for a constant m).
+    let pair = |a: usize| if m > a + 1 { p[a] + p[a + 1] } else { p[a] };
+    if m == 0 {
+        return L::zero();
     }
-    bad == 0
+    let s01 = pair(0);
+    if m <= 2 {
+        return s01;
+    }
+    let s0123 = s01 + pair(2);
+    if m <= 4 {
+        return s0123;
+    }
+    let s45 = pair(4);
+    if m <= 6 {
+        return s0123 + s45;
+    }
+    s0123 + (s45 + pair(6))
 }
 
-/// Saved states: step indices, then row-major q, p and energy rows.
-#[derive(Debug, Clone, Default)]
+/// `pairwise!(L, start, end, |i| (a, b))`: runs the body for i in start..end (in order) and
+/// returns the sums of its two terms in the fixed order of [`tree`]. Written as a macro so that
+/// the body is inlined into the unrolled chunks of eight (which the compiler vectorizes).
+macro_rules! pairwise {
+    ($l:ty, $start:expr, $end:expr, |$i:ident| $body:expr) => {{
+        let (start, end): (usize, usize) = ($start, $end);
+        let count = end - start;
+        let mut a = [<$l as $crate::real::Real>::zero(); 8];
+        let mut b = [<$l as $crate::real::Real>::zero(); 8];
+        // Chunks of eight written out (a loop this large is not unrolled by the compiler, and
+        // the partial sums would then live in memory); `base + 8 <= end` lets the compiler see
+        // that every index is below `end`, so no bounds test is left. The first chunk starts
+        // the sums.
+        macro_rules! term {
+            ($base:expr, $t:literal, $first:literal) => {{
+                let $i = $base + $t;
+                let (x, y) = $body;
+                if $first {
+                    a[$t] = x;
+                    b[$t] = y;
+                } else {
+                    a[$t] += x;
+                    b[$t] += y;
+                }
+            }};
+        }
+        macro_rules! chunk {
+            ($base:expr, $first:literal) => {{
+                term!($base, 0, $first);
+                term!($base, 1, $first);
+                term!($base, 2, $first);
+                term!($base, 3, $first);
+                term!($base, 4, $first);
+                term!($base, 5, $first);
+                term!($base, 6, $first);
+                term!($base, 7, $first);
+            }};
+        }
+        let mut base = start;
+        if base + 8 <= end {
+            chunk!(base, true);
+            base += 8;
+            while base + 8 <= end {
+                chunk!(base, false);
+                base += 8;
+            }
+        }
+        let started = count >= 8;
+        for t in 0..end - base {
+            let $i = base + t;
+            let (x, y) = $body;
+            a[t] = if started { a[t] + x } else { x };
+            b[t] = if started { b[t] + y } else { y };
+        }
+        (
+            $crate::energy::tree(&a, count),
+            $crate::energy::tree(&b, count),
+        )
+    }};
+}
+pub(crate) use pairwise;
+
+/// `x[i]` without a bounds test, for the kernels' inner loops: a test per element splits an
+/// unrolled chunk into blocks that the compiler does not vectorize, and a test of a loop-invariant
+/// index is not hoisted out of a loop. Callers make sure, once before the loop, that i is in
+/// range for every read (the shapes guarantee coef(i) ≤ i < n, and the slices are cut to n).
+#[inline(always)]
+pub(crate) fn at<L: Copy>(x: &[L], i: usize) -> L {
+    debug_assert!(i < x.len());
+    // SAFETY: i < x.len(), asserted by the caller for the whole range (see above).
+    unsafe { *x.get_unchecked(i) }
+}
+
+/// p² of a slow coordinate (½ is applied to the sum).
+#[inline(always)]
+pub fn kinetic<L: Real>(p: L) -> L {
+    p * p
+}
+
+/// p² + ω²q² of an oscillatory coordinate: twice its share of I_j.
+#[inline(always)]
+pub fn oscillator<L: Real>(p: L, q: L, omega2: L) -> L {
+    p * p + omega2 * (q * q)
+}
+
+/// a p² + b q²: twice a coordinate's share of the modified energy (mod-energies).
+#[inline(always)]
+pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
+    a * (p * p) + b * (q * q)
+}
+
+/// Sums of the forms over one state, as a sweep accumulates them.
+#[derive(Clone, Copy)]
+pub struct Sums<L> {
+    /// Σ p² over the slow coordinates
+    pub kinetic: L,
+    /// Σ (p² + ω²q²) over the oscillatory coordinates
+    pub oscillatory: L,
+    /// Σ (a p² + b q²), when H* is not H_ω
+    pub modified: L,
+}
+
+impl<L: Real> Sums<L> {
+    #[inline(always)]
+    pub fn zero() -> Self {
+        Sums {
+            kinetic: L::zero(),
+            oscillatory: L::zero(),
+            modified: L::zero(),
+        }
+    }
+
+    /// The four main channels [H, H_ω, H_slow, H*] from the sums and U.
+    #[inline(always)]
+    pub fn channels(self, u: L, plain_modified: bool) -> [L; FIRST_BLOCK] {
+        let half = L::splat(0.5);
+        let oscillatory = half * self.oscillatory;
+        let slow = half * self.kinetic + u;
+        let modified = if plain_modified {
+            oscillatory
+        } else {
+            half * self.modified
+        };
+        [oscillatory + slow, oscillatory, slow, modified]
+    }
+}
+
+/// Running maxima and minima of every channel, one number per lane.
+#[derive(Clone)]
+pub struct Extremes<L> {
+    pub high: [L; FIRST_BLOCK],
+    pub low: [L; FIRST_BLOCK],
+    /// I_1 … I_ℓ when ℓ > 1 (for ℓ = 1, I_1 = H_ω)
+    pub block_high: Vec<L>,
+    pub block_low: Vec<L>,
+}
+
+impl<L: Real> Extremes<L> {
+    pub fn new(n_blocks: usize) -> Self {
+        let several = if n_blocks > 1 { n_blocks } else { 0 };
+        Extremes {
+            high: [L::splat(f64::NEG_INFINITY); FIRST_BLOCK],
+            low: [L::splat(f64::INFINITY); FIRST_BLOCK],
+            block_high: vec![L::splat(f64::NEG_INFINITY); several],
+            block_low: vec![L::splat(f64::INFINITY); several],
+        }
+    }
+
+    /// Extremes that own no memory, to stand in while the real ones are moved out.
+    pub fn placeholder() -> Self {
+        Extremes {
+            high: [L::zero(); FIRST_BLOCK],
+            low: [L::zero(); FIRST_BLOCK],
+            block_high: Vec::new(),
+            block_low: Vec::new(),
+        }
+    }
+
+    /// Takes the channels of one step into the running extremes (whole arrays, so every access
+    /// has the same width: stores of one width read back in another stall store forwarding).
+    /// With `skip_modified` (H* = H_ω) the modified channel is left for the caller to copy.
+    #[inline(always)]
+    pub fn update(&mut self, main: &[L; FIRST_BLOCK], skip_modified: bool) {
+        let (mut high, mut low) = (self.high, self.low);
+        for c in 0..FIRST_BLOCK {
+            if skip_modified && c == MODIFIED {
+                continue;
+            }
+            high[c] = high[c].keep_max(main[c]);
+            low[c] = low[c].keep_min(main[c]);
+        }
+        self.high = high;
+        self.low = low;
+    }
+
+    #[inline(always)]
+    pub fn update_blocks(&mut self, blocks: &[L]) {
+        for (j, &e) in blocks.iter().enumerate() {
+            self.block_high[j] = self.block_high[j].keep_max(e);
+            self.block_low[j] = self.block_low[j].keep_min(e);
+        }
+    }
+
+    /// The extremes of lane b in channel order (I_1 = H_ω for ℓ = 1).
+    pub fn lane(&self, b: usize, n_blocks: usize) -> (Vec<f64>, Vec<f64>) {
+        let pick = |main: &[L; FIRST_BLOCK], blocks: &[L]| {
+            let mut v: Vec<f64> = main.iter().map(|x| x.lane(b)).collect();
+            if n_blocks == 1 {
+                v.push(main[OSCILLATORY].lane(b));
+            } else {
+                v.extend(blocks.iter().map(|x| x.lane(b)));
+            }
+            v
+        };
+        (
+            pick(&self.high, &self.block_high),
+            pick(&self.low, &self.block_low),
+        )
+    }
+}
+
+/// max_n |E(t_n) − E(0)| per channel from the extremes. Rounding is monotone, so
+/// max(E_n) − E_0 equals max(E_n − E_0) bit for bit.
+pub fn max_deviation(initial: &[f64], high: &[f64], low: &[f64]) -> Vec<f64> {
+    initial
+        .iter()
+        .zip(high.iter().zip(low))
+        .map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo))
+        .collect()
+}
+
+/// Saved states of one trajectory: step indices, then row-major q, p and energy rows.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Samples {
     pub steps: Vec<u64>,
     pub q: Vec<f64>,
@@ -137,227 +272,42 @@ pub struct Samples {
     pub energies: Vec<f64>,
 }
 
-/// The energy weights in the kernel's storage, with 0/1 masks for the slow and fast
-/// coordinates so that the sums need no branches.
-struct Weights<S> {
-    omega2: S,
-    fast: S,
-    slow: S,
-    modified_p: S,
-    modified_q: S,
+impl Samples {
+    pub fn len(&self) -> usize {
+        self.steps.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.steps.is_empty()
+    }
 }
 
-/// Streams the energies at every step: max |E(t_n) − E(0)| per channel, and the samples
-/// at steps 0, s, 2s, … and the last step. Memory is O(samples), never O(steps).
-pub struct Recorder<'a, S> {
-    layout: &'a EnergyLayout,
-    w: Weights<S>,
-    plain_modified: bool,
-    /// ℓ > 1: the per-block channels need their own sums (for ℓ = 1, I_1 = H_ω).
-    several_blocks: bool,
-    /// Track the energies at every step; otherwise only at samples (and check finiteness).
-    track: bool,
-    save_every: u64,
-    last_step: u64,
-    until_sample: u64,
-    /// The four main channels at the current step, and their running extremes.
-    main: [f64; FIRST_BLOCK],
-    main_high: [f64; FIRST_BLOCK],
-    main_low: [f64; FIRST_BLOCK],
-    blocks: Vec<f64>,
-    blocks_high: Vec<f64>,
-    blocks_low: Vec<f64>,
-    initial: Vec<f64>,
-    row: Vec<f64>,
-    pub samples: Samples,
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-impl<'a, S: Storage> Recorder<'a, S> {
-    pub fn new(layout: &'a EnergyLayout, track: bool, save_every: u64, last_step: u64) -> Self {
-        let n = layout.dim();
-        let c = layout.n_channels();
-        let l = layout.n_blocks;
-        let n_samples = (last_step / save_every.max(1) + 2).min(1 << 20) as usize;
-        Recorder {
-            layout,
-            w: Weights {
-                omega2: S::from_slice(&layout.omega2),
-                fast: S::from_slice(&layout.mask(false)),
-                slow: S::from_slice(&layout.mask(true)),
-                modified_p: S::from_slice(&layout.modified_p),
-                modified_q: S::from_slice(&layout.modified_q),
-            },
-            plain_modified: layout.modified_is_plain(),
-            several_blocks: l > 1,
-            track,
-            save_every: save_every.max(1),
-            last_step,
-            until_sample: 0,
-            main: [0.0; FIRST_BLOCK],
-            main_high: [f64::NEG_INFINITY; FIRST_BLOCK],
-            main_low: [f64::INFINITY; FIRST_BLOCK],
-            blocks: vec![0.0; l + 1],
-            blocks_high: vec![f64::NEG_INFINITY; l],
-            blocks_low: vec![f64::INFINITY; l],
-            initial: vec![f64::NAN; c],
-            row: vec![0.0; c],
-            samples: Samples {
-                steps: Vec::with_capacity(n_samples),
-                q: Vec::with_capacity(n_samples * n),
-                p: Vec::with_capacity(n_samples * n),
-                energies: Vec::with_capacity(n_samples * c),
-            },
-        }
-    }
-
-    /// Whether U(q_n) is needed when step `n` is observed.
-    #[inline(always)]
-    pub fn needs_potential_at(&self, n: u64) -> bool {
-        self.track || self.is_sample(n)
-    }
-
-    #[inline(always)]
-    fn is_sample(&self, n: u64) -> bool {
-        // `until_sample` counts down from save_every after each sample.
-        self.until_sample == 0 || n == self.last_step
-    }
-
-    /// The four main channels (and the per-block sums when ℓ > 1) at one state, returned by
-    /// value: they stay in registers for the max/min updates (storing them and loading them
-    /// back in another width stalls store forwarding).
-    #[inline(always)]
-    fn evaluate(&mut self, q: &[f64], p: &[f64], u: f64) -> [f64; FIRST_BLOCK] {
-        let w = &mut self.w;
-        let n = q.len();
-        let (p, omega2, fast, slow) = (
-            &p[..n],
-            &w.omega2.get()[..n],
-            &w.fast.get()[..n],
-            &w.slow.get()[..n],
-        );
-        let (mp, mq) = (&w.modified_p.get()[..n], &w.modified_q.get()[..n]);
-        let (mut oscillatory, mut kinetic_slow, mut modified) = (0.0, 0.0, 0.0);
-        for i in 0..n {
-            let (pp, qq) = (p[i] * p[i], q[i] * q[i]);
-            let e = 0.5 * (pp + omega2[i] * qq);
-            oscillatory += fast[i] * e;
-            kinetic_slow += slow[i] * e;
-            if !self.plain_modified {
-                modified += 0.5 * (mp[i] * pp + mq[i] * qq);
+    #[test]
+    fn the_tree_is_the_documented_order() {
+        let p: [f64; 8] = std::array::from_fn(|k| 1.0 + 0.1 * k as f64 + 1e-17 * k as f64);
+        let level = |v: &[f64]| -> Vec<f64> {
+            v.chunks(2)
+                .map(|c| if c.len() == 2 { c[0] + c[1] } else { c[0] })
+                .collect()
+        };
+        for m in 1..=8 {
+            let mut v = p[..m].to_vec();
+            while v.len() > 1 {
+                v = level(&v);
             }
+            assert_eq!(tree(&p, m).to_bits(), v[0].to_bits(), "m = {m}");
         }
-        if self.several_blocks {
-            self.block_sums(q, p);
+        // pairwise!: partial sum k mod 8 of the terms in order, then the tree.
+        let terms: Vec<f64> = (0..21).map(|k| (k as f64 * 0.37).sin()).collect();
+        let (s, _) = pairwise!(f64, 0, terms.len(), |i| (terms[i], 0.0));
+        let mut parts = [0.0; 8];
+        for (k, &t) in terms.iter().enumerate() {
+            parts[k % 8] = if k < 8 { t } else { parts[k % 8] + t };
         }
-        let slow_energy = kinetic_slow + u;
-        [
-            oscillatory + slow_energy,
-            oscillatory,
-            slow_energy,
-            if self.plain_modified {
-                oscillatory
-            } else {
-                modified
-            },
-        ]
-    }
-
-    /// I_1 … I_ℓ into `blocks[1..]`, for ℓ > 1.
-    #[inline(never)]
-    fn block_sums(&mut self, q: &[f64], p: &[f64]) {
-        self.blocks.fill(0.0);
-        let omega2 = self.w.omega2.get();
-        for (i, &b) in self.layout.block.iter().enumerate() {
-            self.blocks[b] += 0.5 * (p[i] * p[i] + omega2[i] * (q[i] * q[i]));
-        }
-    }
-
-    /// All channels of the current step in output order.
-    fn current_row(&mut self) {
-        self.row[..FIRST_BLOCK].copy_from_slice(&self.main);
-        if self.several_blocks {
-            self.row[FIRST_BLOCK..].copy_from_slice(&self.blocks[1..]);
-        } else if self.layout.n_blocks == 1 {
-            self.row[FIRST_BLOCK] = self.main[OSCILLATORY];
-        }
-    }
-
-    /// Observes the state at step n; returns false if it is not finite (a blow-up).
-    #[inline(always)]
-    pub fn observe(&mut self, n: u64, q: &[f64], p: &[f64], u: f64) -> bool {
-        let sample = self.is_sample(n);
-        if self.track || sample {
-            let main = self.evaluate(q, p, u);
-            // Any non-finite coordinate, momentum or U makes the total non-finite.
-            if !main[TOTAL].is_finite() {
-                return false;
-            }
-            self.main = main;
-            if self.track {
-                // Whole-array loads and stores, so that every access has the same width.
-                let (mut high, mut low) = (self.main_high, self.main_low);
-                for c in 0..FIRST_BLOCK {
-                    high[c] = if main[c] > high[c] { main[c] } else { high[c] };
-                    low[c] = if main[c] < low[c] { main[c] } else { low[c] };
-                }
-                self.main_high = high;
-                self.main_low = low;
-                if self.several_blocks {
-                    for j in 0..self.blocks_high.len() {
-                        let e = self.blocks[j + 1];
-                        self.blocks_high[j] = self.blocks_high[j].max(e);
-                        self.blocks_low[j] = self.blocks_low[j].min(e);
-                    }
-                }
-            }
-        } else if !all_finite(q) {
-            return false;
-        }
-        if sample {
-            self.record_sample(n, q, p);
-        }
-        self.until_sample -= 1;
-        true
-    }
-
-    #[cold]
-    fn record_sample(&mut self, n: u64, q: &[f64], p: &[f64]) {
-        self.current_row();
-        if n == 0 {
-            self.initial.copy_from_slice(&self.row);
-        }
-        self.samples.steps.push(n);
-        self.samples.q.extend_from_slice(q);
-        self.samples.p.extend_from_slice(p);
-        self.samples.energies.extend_from_slice(&self.row);
-        self.until_sample = self.save_every;
-    }
-
-    /// The energies at step 0.
-    pub fn initial(&self) -> &[f64] {
-        &self.initial
-    }
-
-    /// max_n |E(t_n) − E(0)| per channel over every observed step; NaN if not tracked.
-    ///
-    /// Rounding is monotone, so max(E_n) − E_0 equals max(E_n − E_0) bit for bit.
-    pub fn max_deviation(&self) -> Vec<f64> {
-        if !self.track {
-            return vec![f64::NAN; self.initial.len()];
-        }
-        let mut high = self.main_high.to_vec();
-        let mut low = self.main_low.to_vec();
-        if self.several_blocks {
-            high.extend_from_slice(&self.blocks_high);
-            low.extend_from_slice(&self.blocks_low);
-        } else if self.layout.n_blocks == 1 {
-            high.push(self.main_high[OSCILLATORY]);
-            low.push(self.main_low[OSCILLATORY]);
-        }
-        self.initial
-            .iter()
-            .zip(high.iter().zip(&low))
-            .map(|(&e0, (&hi, &lo))| (hi - e0).max(e0 - lo))
-            .collect()
+        assert_eq!(s.to_bits(), tree(&parts, 8).to_bits());
     }
 }

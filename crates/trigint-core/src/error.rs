@@ -16,6 +16,11 @@ pub enum CoreError {
     /// A user-supplied potential (a Python callback) failed; the text is its message.
     #[error("the potential failed: {0}")]
     Potential(String),
+
+    /// The potential was asked to stop (Ctrl-C inside a Python callback): the run ends
+    /// "interrupted" at its last observed state, keeping its samples.
+    #[error("interrupted")]
+    Interrupted,
 }
 
 impl CoreError {

@@ -2,21 +2,33 @@
 //!
 //! Long-time integration of q'' + Ω²q = −∇U(q) by trigonometric and modified trigonometric
 //! integrators (Cohen, Gauckler, Hairer, Lubich, BIT 2015). Methods arrive as per-coordinate
-//! coefficient arrays ([`MethodCoefficients`]); one generic kernel steps every method.
+//! coefficient arrays ([`MethodCoefficients`]); one recursion ([`recursion`]), written once over
+//! a lane-generic number type ([`Real`]), steps every method, for one trajectory or for bundles
+//! of them ([`bundle`]).
 
-pub mod batch;
+pub mod bundle;
 pub mod coefficients;
-pub mod driver;
 pub mod energy;
 pub mod error;
 #[doc(hidden)]
 pub mod fixtures;
+mod isa;
+pub mod output;
 pub mod potential;
-pub mod stepper;
+pub mod real;
+pub mod recursion;
+mod run;
+pub mod shape;
 
-pub use batch::{integrate_batch, BatchSpec, TrajectoryMethod, TrajectoryOutput};
-pub use coefficients::{KernelCoefficients, MethodCoefficients};
-pub use driver::{integrate, Form, RunOutput, RunSpec, Status};
-pub use energy::{EnergyLayout, Recorder, Samples};
+pub use bundle::Control;
+pub use coefficients::MethodCoefficients;
+pub use energy::{channel_names, Samples};
 pub use error::{CoreError, CoreResult};
-pub use potential::{Fpu, Polynomial, Potential};
+pub use output::{Form, Record, Status, TrajectoryOutput};
+pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec};
+pub use real::{Lanes, Real, Scalar};
+pub use run::{integrate, integrate_batch};
+pub use shape::Layout;
+
+/// Trajectories per bundle of the batched kernel: one AVX-512 register of f64.
+pub type BatchLanes = Lanes<8>;

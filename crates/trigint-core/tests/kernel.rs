@@ -1,105 +1,68 @@
-//! Oracles for the kernels: exact harmonic solutions, form equivalence, energy bounds,
-//! sampling, blow-up and storage-independent bits.
+//! Oracles for the kernels: exact harmonic solutions, the two forms against each other, the
+//! shapes against each other (bit for bit), blow-up, interruption and bad input.
 
+use trigint_core::bundle::{Bundle, Control};
+use trigint_core::fixtures::{fpu_method_b, layout, sinc, trigonometric};
+use trigint_core::shape::{Fixed, Shape};
 use trigint_core::*;
 
-fn sinc(x: f64) -> f64 {
-    if x == 0.0 {
-        1.0
-    } else {
-        x.sin() / x
+fn record(save_every: u64) -> Record {
+    Record {
+        save_every: Some(save_every),
+        track: true,
     }
 }
 
-/// Deuflhard's method B (ψ = sinc, φ = 1) at frequencies `omega`.
-fn method_b(h: f64, omega: &[f64]) -> MethodCoefficients {
-    let xi: Vec<f64> = omega.iter().map(|w| h * w).collect();
-    MethodCoefficients {
-        h,
-        one_minus_cos: xi.iter().map(|x| 2.0 * (0.5 * x).sin().powi(2)).collect(),
-        sin: xi.iter().map(|x| x.sin()).collect(),
-        chi: xi.iter().map(|&x| sinc(x)).collect(),
-        psi: xi.iter().map(|&x| sinc(x)).collect(),
-        phi: vec![1.0; omega.len()],
-    }
+fn run<P: Potential>(
+    pot: &P,
+    lay: &Layout,
+    co: &MethodCoefficients,
+    q0: &[f64],
+    p0: &[f64],
+    n: u64,
+    form: Form,
+    rec: Record,
+) -> TrajectoryOutput {
+    let mut go = |_| true;
+    let control = Control {
+        every: 1 << 20,
+        report: &mut go,
+    };
+    integrate(pot, lay, co, q0, p0, n, form, rec, control).unwrap()
 }
 
-fn layout(omega: &[f64]) -> EnergyLayout {
-    let mut distinct: Vec<f64> = Vec::new();
-    let block = omega
-        .iter()
-        .map(|&w| {
-            if w == 0.0 {
-                return 0;
-            }
-            match distinct.iter().position(|&d| d == w) {
-                Some(j) => j + 1,
-                None => {
-                    distinct.push(w);
-                    distinct.len()
-                }
-            }
-        })
-        .collect();
-    EnergyLayout {
-        omega2: omega.iter().map(|w| w * w).collect(),
-        modified_p: omega
-            .iter()
-            .map(|&w| if w == 0.0 { 0.0 } else { 1.0 })
-            .collect(),
-        modified_q: omega.iter().map(|w| w * w).collect(),
-        block,
-        n_blocks: distinct.len(),
-    }
+/// U = 0 in n coordinates.
+fn zero(n: usize) -> Program {
+    let spec = ProgramSpec {
+        n_inputs: n,
+        ops: vec![Op::Const(0.0)],
+        output: 0,
+    };
+    Program::new(&spec, None).unwrap()
 }
 
-fn spec(n_steps: u64, save_every: u64, form: Form) -> RunSpec {
-    RunSpec {
-        n_steps,
-        save_every,
-        form,
-        track_energies: true,
-        progress_every: 1 << 20,
-    }
-}
-
-fn fpu_omega(m: usize, w: f64) -> Vec<f64> {
-    let mut o = vec![0.0; m];
-    o.extend(std::iter::repeat(w).take(m));
-    o
-}
-
-fn fpu_initial(m: usize, w: f64) -> (Vec<f64>, Vec<f64>) {
-    let (mut q, mut p) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
-    q[0] = 1.0;
-    p[0] = 1.0;
-    q[m] = 1.0 / w;
-    p[m] = 1.0;
-    (q, p)
+/// U = c x0^k as a program.
+fn monomial(n: usize, c: f64, k: i32) -> Program {
+    let spec = ProgramSpec {
+        n_inputs: n,
+        ops: vec![Op::Input(0), Op::Powi(0, k), Op::Const(c), Op::Mul(2, 1)],
+        output: 3,
+    };
+    Program::new(&spec, None).unwrap()
 }
 
 #[test]
-fn harmonic_oscillator_is_exact() {
-    // U = 0: q(t) = q0 cos ωt + p0 sin(ωt)/ω, for every step size with sin(hω) ≠ 0.
-    let zero = Polynomial::new(3, vec![], &[]).unwrap();
+fn harmonic_oscillators_are_exact_in_both_forms() {
+    // U = 0: q(t) = q0 cos ωt + p0 sin(ωt)/ω; one slow and two oscillatory blocks.
     let omega = [0.0, 7.0, 31.0];
     let (q0, p0) = ([0.3, -0.2, 0.05], [0.1, 1.0, -2.0]);
+    let h = 3.0 / 31.0;
+    let n = 10_000;
+    let co = trigonometric(h, &omega, sinc, |_| 1.0);
     for form in [Form::TwoStep, Form::OneStep] {
-        let h = 3.0 / 31.0;
-        let n = 10_000;
-        let out = integrate(
-            &zero,
-            &method_b(h, &omega),
-            &layout(&omega),
-            &q0,
-            &p0,
-            &spec(n, n, form),
-            &mut |_| true,
-        )
-        .unwrap();
+        let out = run(&zero(3), &layout(&omega), &co, &q0, &p0, n, form, record(n));
         let t = n as f64 * h;
-        let last = out.samples.steps.len() - 1;
-        assert_eq!(out.samples.steps[last], n);
+        assert_eq!(out.samples.steps, vec![0, n]);
         for i in 0..3 {
             let w = omega[i];
             let (q, p) = if w == 0.0 {
@@ -110,166 +73,206 @@ fn harmonic_oscillator_is_exact() {
                     -q0[i] * w * (w * t).sin() + p0[i] * (w * t).cos(),
                 )
             };
-            let scale = (q0[i].abs() + p0[i].abs() / w.max(1.0)).max(1e-300);
+            let (qs, ps) = (out.samples.q[3 + i], out.samples.p[3 + i]);
             assert!(
-                (out.samples.q[3 * last + i] - q).abs() < 1e-10 * scale.max(q.abs()),
-                "{form:?} q[{i}]"
+                (qs - q).abs() < 1e-10 * (q0[i].abs() + p0[i].abs()),
+                "{form:?} q{i}"
             );
             assert!(
-                (out.samples.p[3 * last + i] - p).abs() < 1e-10 * (p0[i].abs() + w * q0[i].abs()),
-                "{form:?} p[{i}]"
+                (ps - p).abs() < 1e-10 * (p0[i].abs() + w * q0[i].abs()),
+                "{form:?} p{i}"
             );
+        }
+        // Every energy is conserved up to rounding (each block is an exact rotation): within
+        // 2nε of its size (measured: 7e-14 two-step, 7e-13 one-step, relative).
+        let bound = 2.0 * n as f64 * f64::EPSILON;
+        for (d, e) in out.max_deviation.iter().zip(&out.initial_energies) {
+            assert!(*d <= bound * e.abs().max(1e-300), "{form:?}: {d} for {e}");
         }
     }
 }
 
 #[test]
 fn fpu_forms_agree_and_energy_is_bounded() {
-    let (m, w) = (3, 50.0);
-    let omega = fpu_omega(m, w);
-    let (q0, p0) = fpu_initial(m, w);
-    let pot = Fpu::new(m).unwrap();
-    let h = 2.0 * std::f64::consts::PI / 3.0 / w;
-    let co = method_b(h, &omega);
-    let lay = layout(&omega);
-    let a = integrate(
-        &pot,
-        &co,
-        &lay,
-        &q0,
-        &p0,
-        &spec(1000, 10, Form::TwoStep),
-        &mut |_| true,
-    )
-    .unwrap();
-    let b = integrate(
-        &pot,
-        &co,
-        &lay,
-        &q0,
-        &p0,
-        &spec(1000, 10, Form::OneStep),
-        &mut |_| true,
-    )
-    .unwrap();
+    let h = 2.0 * std::f64::consts::PI / 3.0 / 50.0;
+    let (co, lay, q0, p0) = fpu_method_b(3, 50.0, h);
+    let pot = Fpu::new(3).unwrap();
+    let a = run(&pot, &lay, &co, &q0, &p0, 1000, Form::TwoStep, record(10));
+    let b = run(&pot, &lay, &co, &q0, &p0, 1000, Form::OneStep, record(10));
     assert_eq!(a.samples.steps.len(), 101);
     for (x, y) in a.samples.q.iter().zip(&b.samples.q) {
         assert!((x - y).abs() < 1e-10, "{x} vs {y}");
     }
     assert!((a.initial_energies[0] - 2.00120008).abs() < 1e-12);
     assert!((a.initial_energies[1] - 1.0).abs() < 1e-12);
-    // Oscillatory energy stays within a small multiple of ε = 0.02 (Fig. 2, top), and the
-    // single block carries all of it.
-    assert!(a.max_deviation[1] < 0.05, "{:?}", a.max_deviation);
+    // H_ω stays within a small multiple of ε = 0.02 (Fig. 2, top); one block carries it all.
+    assert!(a.max_deviation[1] < 0.05 && a.max_deviation[1] > 1e-6);
     assert_eq!(a.max_deviation[1], a.max_deviation[4]);
-    assert!(a.max_deviation[1] > 1e-6);
+    // B is symplectic with σ = 1: H* is H_ω.
+    assert_eq!(a.max_deviation[1], a.max_deviation[3]);
+}
+
+/// One trajectory through a bundle of the given shape and number type.
+fn through<L: Real, Sh: Shape, P: Potential>(
+    sh: &Sh,
+    pot: &P,
+    lay: &Layout,
+    co: &MethodCoefficients,
+    q0: &[f64],
+    p0: &[f64],
+    n: u64,
+    form: Form,
+) -> TrajectoryOutput {
+    let mut go = |_| true;
+    let mut control = Control {
+        every: 1 << 20,
+        report: &mut go,
+    };
+    let b = Bundle::<L, Sh, P>::new(
+        sh,
+        pot,
+        &lay.omega2,
+        form,
+        record(7),
+        &[co],
+        &[q0],
+        &[p0],
+        &[n],
+    );
+    b.run(&mut control).unwrap().remove(0)
 }
 
 #[test]
-fn fixed_and_vector_storage_give_identical_bits() {
-    // m = 3 runs on [f64; 6]; m = 5 on Vec. Compare m = 3 against the Vec kernel directly.
-    let (m, w) = (3, 50.0);
-    let omega = fpu_omega(m, w);
-    let (q0, p0) = fpu_initial(m, w);
-    let pot = Fpu::new(m).unwrap();
-    let co = method_b(0.02, &omega);
-    let k = co.kernel();
-    let lay = layout(&omega);
-    fn run<K: Stepper>(
-        mut kernel: K,
-        lay: &EnergyLayout,
-        q0: &[f64],
-        p0: &[f64],
-    ) -> (Vec<f64>, Vec<f64>) {
-        let mut rec = Recorder::<K::S>::new(lay, true, 7, 500);
-        assert!(kernel.start(q0, p0, &mut rec).unwrap());
-        for _ in 0..500 {
-            assert!(kernel.step(&mut rec).unwrap());
-        }
-        (rec.samples.q.clone(), rec.max_deviation())
+fn every_shape_and_number_type_gives_the_same_bits() {
+    let h = 0.02;
+    let (co, lay, q0, p0) = fpu_method_b(3, 50.0, h);
+    let pot = Fpu::new(3).unwrap();
+    for form in [Form::TwoStep, Form::OneStep] {
+        let fixed =
+            through::<Scalar, _, _>(&Fixed::<6, 3>::new(), &pot, &lay, &co, &q0, &p0, 500, form);
+        let uniform = through::<f64, _, _>(&lay.uniform(), &pot, &lay, &co, &q0, &p0, 500, form);
+        let dynamic = through::<f64, _, _>(&lay.dynamic(), &pot, &lay, &co, &q0, &p0, 500, form);
+        let lanes = through::<Lanes<4>, _, _>(&lay.dynamic(), &pot, &lay, &co, &q0, &p0, 500, form);
+        assert_eq!(fixed, uniform, "{form:?}");
+        assert_eq!(fixed, dynamic, "{form:?}");
+        assert_eq!(fixed, lanes, "{form:?}");
+        assert_eq!(fixed, run(&pot, &lay, &co, &q0, &p0, 500, form, record(7)));
     }
-    use trigint_core::stepper::{OneStep, Stepper, TwoStep};
-    let a = run(TwoStep::<_, [f64; 6]>::new(&pot, &k), &lay, &q0, &p0);
-    let b = run(TwoStep::<_, Vec<f64>>::new(&pot, &k), &lay, &q0, &p0);
-    assert_eq!(a, b);
-    let c = run(OneStep::<_, [f64; 6]>::new(&pot, &k), &lay, &q0, &p0);
-    let d = run(OneStep::<_, Vec<f64>>::new(&pot, &k), &lay, &q0, &p0);
-    assert_eq!(c, d);
 }
 
 #[test]
-fn blow_up_stops_and_keeps_samples() {
-    // A strongly repulsive quartic potential: U = -q^4 drives the solution to infinity.
-    let pot = Polynomial::new(1, vec![-1.0], &[4]).unwrap();
-    let co = method_b(0.1, &[1.0]);
-    let out = integrate(
+fn blow_up_keeps_the_last_finite_state_tracked_or_not() {
+    // U = −q⁴ drives the solution to infinity in finite time.
+    let pot = monomial(1, -1.0, 4);
+    let co = trigonometric(0.1, &[1.0], sinc, |_| 1.0);
+    let lay = layout(&[1.0]);
+    let mut ends = vec![];
+    for track in [true, false] {
+        for form in [Form::TwoStep, Form::OneStep] {
+            let rec = Record {
+                save_every: Some(5),
+                track,
+            };
+            let out = run(&pot, &lay, &co, &[2.0], &[1.0], 100_000, form, rec);
+            assert_eq!(out.status, Status::BlowUp);
+            assert!(out.steps_done < 1000);
+            assert!(out
+                .samples
+                .q
+                .iter()
+                .chain(&out.samples.p)
+                .all(|x| x.is_finite()));
+            // The last finite state is the last sample, even off the save_every grid.
+            assert_eq!(*out.samples.steps.last().unwrap(), out.steps_done);
+            assert!(out.message.contains("blew up"), "{}", out.message);
+            ends.push((form, out.steps_done, out.samples.clone()));
+        }
+    }
+    // Tracking does not change where the run ends, or what it keeps.
+    assert_eq!(ends[0].1, ends[2].1);
+    assert_eq!(ends[0].2, ends[2].2);
+    assert_eq!(ends[1].1, ends[3].1);
+}
+
+#[test]
+fn a_potential_not_finite_at_the_start_is_reported_as_such() {
+    // U = 1/x at x = 0.
+    let spec = ProgramSpec {
+        n_inputs: 1,
+        ops: vec![Op::Input(0), Op::Powi(0, -1)],
+        output: 1,
+    };
+    let pot = Program::new(&spec, None).unwrap();
+    let co = trigonometric(0.1, &[1.0], sinc, |_| 1.0);
+    let out = run(
         &pot,
-        &co,
         &layout(&[1.0]),
-        &[2.0],
+        &co,
+        &[0.0],
         &[1.0],
-        &spec(100_000, 5, Form::TwoStep),
-        &mut |_| true,
-    )
-    .unwrap();
+        10,
+        Form::TwoStep,
+        record(1),
+    );
     assert_eq!(out.status, Status::BlowUp);
-    assert!(out.steps_done < 1000);
-    assert!(out.samples.q.iter().all(|x| x.is_finite()));
-    assert_eq!(*out.samples.steps.last().unwrap(), out.steps_done / 5 * 5);
+    assert_eq!(out.steps_done, 0);
+    assert!(
+        out.message.contains("not finite at the initial state"),
+        "{}",
+        out.message
+    );
 }
 
 #[test]
-fn interruption_keeps_samples() {
+fn interruption_keeps_the_state_reached() {
+    let (co, lay, q0, p0) = fpu_method_b(1, 10.0, 0.01);
     let pot = Fpu::new(1).unwrap();
-    let co = method_b(0.01, &[0.0, 10.0]);
-    let mut spec = spec(10_000, 100, Form::TwoStep);
-    spec.progress_every = 1000;
     let mut calls = 0;
+    let mut report = |_| {
+        calls += 1;
+        calls < 3
+    };
+    let control = Control {
+        every: 1000,
+        report: &mut report,
+    };
     let out = integrate(
         &pot,
+        &lay,
         &co,
-        &layout(&[0.0, 10.0]),
-        &[1.0, 0.1],
-        &[0.0, 0.0],
-        &spec,
-        &mut |_| {
-            calls += 1;
-            calls < 3
-        },
+        &q0,
+        &p0,
+        10_000,
+        Form::TwoStep,
+        record(300),
+        control,
     )
     .unwrap();
     assert_eq!(out.status, Status::Interrupted);
     assert_eq!(out.steps_done, 3000);
-    assert_eq!(out.samples.steps.len(), 31);
+    // 0, 300, …, 3000: the interruption step is on the grid here, kept once.
+    assert_eq!(out.samples.steps.len(), 11);
+    assert_eq!(*out.samples.steps.last().unwrap(), 3000);
 }
 
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
-    let pot = Fpu::new(1).unwrap();
-    let lay = layout(&[0.0, 10.0]);
-    let mut co = method_b(0.01, &[0.0, 10.0]);
-    let s = spec(10, 1, Form::TwoStep);
-    assert!(integrate(&pot, &co, &lay, &[1.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
-    assert!(integrate(
-        &pot,
-        &co,
-        &lay,
-        &[f64::NAN, 0.0],
-        &[0.0, 0.0],
-        &s,
-        &mut |_| true
-    )
-    .is_err());
-    assert!(integrate(
-        &Fpu::new(2).unwrap(),
-        &co,
-        &lay,
-        &[0.0, 0.0],
-        &[0.0, 0.0],
-        &s,
-        &mut |_| true
-    )
-    .is_err());
-    co.chi[1] = 0.0;
-    assert!(integrate(&pot, &co, &lay, &[0.0, 0.0], &[0.0, 0.0], &s, &mut |_| true).is_err());
+    let (co, lay, q0, p0) = fpu_method_b(1, 10.0, 0.01);
+    let attempt = |pot: &Fpu, co: &MethodCoefficients, q: &[f64], n: u64| {
+        let mut go = |_| true;
+        let control = Control {
+            every: 1,
+            report: &mut go,
+        };
+        integrate(pot, &lay, co, q, &p0, n, Form::TwoStep, record(1), control)
+    };
+    let one = Fpu::new(1).unwrap();
+    assert!(attempt(&one, &co, &[1.0], 10).is_err());
+    assert!(attempt(&one, &co, &[f64::NAN, 0.0], 10).is_err());
+    assert!(attempt(&one, &co, &q0, 0).is_err());
+    assert!(attempt(&Fpu::new(2).unwrap(), &co, &q0, 10).is_err());
+    let mut singular = co.clone();
+    singular.chi[1] = 0.0;
+    let err = attempt(&one, &singular, &q0, 10).unwrap_err();
+    assert!(err.to_string().contains("chi vanishes"), "{err}");
 }

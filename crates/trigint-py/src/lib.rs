@@ -1,83 +1,62 @@
-//! The PyO3 binding of trigint-core: converts arrays, releases the GIL around the core,
-//! and maps core errors to Python exceptions. No numerics live here.
+//! The PyO3 binding of trigint-core: converts typed inputs, releases the interpreter lock
+//! around the core, and maps core errors to Python exceptions. No numerics live here.
 
+mod convert;
 mod potential;
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
-use trigint_core::{CoreError, EnergyLayout, Form, MethodCoefficients, RunOutput, RunSpec};
+use pyo3::types::{PyDict, PyList};
+use trigint_core::{
+    channel_names, BatchLanes, Control, CoreError, Lanes, Samples, TrajectoryOutput,
+};
 
-use potential::NativePotential;
+use potential::{to_2d, values_and_forces, with_potential, NativePotential};
 
 /// Core errors become Python exceptions here and nowhere else.
-pub(crate) struct TrigintError(CoreError);
-
-impl From<CoreError> for TrigintError {
-    fn from(e: CoreError) -> Self {
-        TrigintError(e)
+fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
+    if let Some(original) = pot.take_error() {
+        return original;
     }
-}
-
-impl From<TrigintError> for PyErr {
-    fn from(e: TrigintError) -> PyErr {
-        match e.0 {
-            CoreError::InvalidArgument { .. } | CoreError::DimensionMismatch { .. } => {
-                PyValueError::new_err(e.0.to_string())
-            }
-            CoreError::Potential(_) => PyRuntimeError::new_err(e.0.to_string()),
+    match e {
+        CoreError::InvalidArgument { .. } | CoreError::DimensionMismatch { .. } => {
+            PyValueError::new_err(e.to_string())
         }
+        CoreError::Potential(_) | CoreError::Interrupted => PyRuntimeError::new_err(e.to_string()),
     }
 }
 
-fn vec1(a: &PyReadonlyArray1<f64>) -> Vec<f64> {
-    a.as_array().to_vec()
+fn samples_dict<'py>(
+    py: Python<'py>,
+    s: Samples,
+    n: usize,
+    c: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let k = s.steps.len();
+    let d = PyDict::new(py);
+    d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
+    d.set_item("q", to_2d(py, s.q, k, n)?)?;
+    d.set_item("p", to_2d(py, s.p, k, n)?)?;
+    d.set_item("energies", to_2d(py, s.energies, k, c)?)?;
+    Ok(d)
 }
 
-/// A row-major buffer as an (n_rows, n_cols) NumPy array, without copying.
-fn to_2d(
-    py: Python<'_>,
-    data: Vec<f64>,
-    n_rows: usize,
-    n_cols: usize,
-) -> PyResult<Bound<'_, PyArray2<f64>>> {
-    PyArray1::from_vec(py, data).reshape([n_rows, n_cols])
-}
-
-/// (h, 1 − cos, sin, χ, ψ, φ) per coordinate.
-type CoefficientArrays<'py> = (
-    f64,
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-);
-
-/// (ω², modified-energy weights of p² and q², block of each coordinate, ℓ).
-type LayoutArrays<'py> = (
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray1<'py, f64>,
-    Vec<usize>,
-    usize,
-);
-
-/// integrate(potential, coefficients, layout, q0, p0, n_steps, save_every, form, track,
-/// progress_every, progress) -> dict
+/// integrate(potential, layout, method, q0, p0, n_steps, save_every, form, track,
+/// progress_every, progress=None) -> dict
 ///
-/// `coefficients` is (h, 1 − cos, sin, chi, psi, phi); `layout` is (omega2, modified_p,
-/// modified_q, block, n_blocks). `progress(steps_done)` is called between chunks and may
-/// return False to stop; Ctrl-C also stops the run, which then reports "interrupted".
+/// `progress(steps_done)` is called every `progress_every` steps and may return False to stop;
+/// Ctrl-C also stops the run, which then reports "interrupted" with its samples.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (potential, coefficients, layout, q0, p0, n_steps, save_every, form, track, progress_every, progress=None))]
+#[pyo3(signature = (potential, layout, method, q0, p0, n_steps, save_every, form, track, progress_every, progress=None))]
 fn integrate<'py>(
     py: Python<'py>,
-    potential: &Bound<'py, PyAny>,
-    coefficients: CoefficientArrays<'py>,
-    layout: LayoutArrays<'py>,
+    potential: &Bound<'py, PyDict>,
+    layout: &Bound<'py, PyDict>,
+    method: &Bound<'py, PyDict>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
     n_steps: u64,
@@ -88,43 +67,13 @@ fn integrate<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let pot = NativePotential::from_spec(potential)?;
-    let (h, one_minus_cos, sin, chi, psi, phi) = coefficients;
-    let co = MethodCoefficients {
-        h,
-        one_minus_cos: vec1(&one_minus_cos),
-        sin: vec1(&sin),
-        chi: vec1(&chi),
-        psi: vec1(&psi),
-        phi: vec1(&phi),
-    };
-    let (omega2, modified_p, modified_q, block, n_blocks) = layout;
-    let lay = EnergyLayout {
-        omega2: vec1(&omega2),
-        modified_p: vec1(&modified_p),
-        modified_q: vec1(&modified_q),
-        block,
-        n_blocks,
-    };
-    let form = match form {
-        "two-step" => Form::TwoStep,
-        "one-step" => Form::OneStep,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "form must be 'two-step' or 'one-step', got {other:?}"
-            )))
-        }
-    };
-    let spec = RunSpec {
-        n_steps,
-        save_every,
-        form,
-        track_energies: track,
-        progress_every,
-    };
-    let (q0, p0) = (vec1(&q0), vec1(&p0));
-
-    // The callback re-attaches to the interpreter between chunks: it checks for Ctrl-C and
-    // calls the user's progress function. A raised exception stops the run and is re-raised.
+    let lay = convert::layout(layout)?;
+    let co = convert::method(method)?;
+    let form = convert::form(form)?;
+    let record = convert::record(Some(save_every), track);
+    let (q0, p0) = (convert::vec1(q0), convert::vec1(p0));
+    // Between chunks of steps the callback re-attaches to the interpreter: it checks for Ctrl-C
+    // and calls the user's progress function. An exception it raises stops the run.
     let mut pending: Option<PyErr> = None;
     let mut report = |done: u64| -> bool {
         Python::attach(|py| {
@@ -145,175 +94,65 @@ fn integrate<'py>(
             }
         })
     };
-    let out: Result<RunOutput, CoreError> =
-        py.detach(|| pot.integrate(&co, &lay, &q0, &p0, &spec, &mut report));
-    let out = match out {
-        Ok(o) => o,
-        Err(e) => return Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
-    };
-    let interrupted_by = pending.map(|e| e.to_string());
-    let n = q0.len();
-    let c = lay.n_channels();
-    let n_samples = out.samples.steps.len();
+    let out: Result<TrajectoryOutput, CoreError> = py.detach(|| {
+        let control = Control {
+            every: progress_every.max(1),
+            report: &mut report,
+        };
+        with_potential!(&pot, |p| trigint_core::integrate(
+            p, &lay, &co, &q0, &p0, n_steps, form, record, control
+        ))
+    });
+    let out = out.map_err(|e| to_py(e, &pot))?;
+    let (n, c) = (q0.len(), lay.n_blocks() + 4);
     let d = PyDict::new(py);
     d.set_item("status", out.status.as_str())?;
     d.set_item("steps_done", out.steps_done)?;
     d.set_item("message", out.message)?;
-    d.set_item("interrupted_by", interrupted_by)?;
-    d.set_item("steps", PyArray1::from_vec(py, out.samples.steps))?;
-    d.set_item("q", to_2d(py, out.samples.q, n_samples, n)?)?;
-    d.set_item("p", to_2d(py, out.samples.p, n_samples, n)?)?;
-    d.set_item("energies", to_2d(py, out.samples.energies, n_samples, c)?)?;
+    d.set_item("interrupted_by", pending.map(|e| e.to_string()))?;
     d.set_item(
         "initial_energies",
         PyArray1::from_vec(py, out.initial_energies),
     )?;
     d.set_item("max_deviation", PyArray1::from_vec(py, out.max_deviation))?;
+    d.set_item("samples", samples_dict(py, out.samples, n, c)?)?;
     Ok(d)
 }
 
-/// potential_value(potential, x) -> U at each row of x (shape (m, n)).
-#[pyfunction]
-fn potential_value<'py>(
-    py: Python<'py>,
-    potential: &Bound<'py, PyAny>,
-    x: PyReadonlyArray2<f64>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let pot = NativePotential::from_spec(potential)?;
-    let x = x.as_array();
-    let (m, n) = (x.nrows(), x.ncols());
-    let data: Vec<f64> = x.iter().copied().collect();
-    let r = py.detach(|| pot.values(&data, m, n));
-    match r {
-        Ok(v) => Ok(PyArray1::from_vec(py, v)),
-        Err(e) => Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
-    }
-}
+/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step.
+type WideLanes = Lanes<128>;
 
-/// potential_force(potential, x) -> g = −∇U at each row of x (shape (m, n)).
-#[pyfunction]
-fn potential_force<'py>(
-    py: Python<'py>,
-    potential: &Bound<'py, PyAny>,
-    x: PyReadonlyArray2<f64>,
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let pot = NativePotential::from_spec(potential)?;
-    let x = x.as_array();
-    let (m, n) = (x.nrows(), x.ncols());
-    let data: Vec<f64> = x.iter().copied().collect();
-    let r = py.detach(|| pot.forces(&data, m, n));
-    match r {
-        Ok(v) => to_2d(py, v, m, n),
-        Err(e) => Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
-    }
-}
-
-/// One batch call's inputs, per trajectory in rows: (h, 1 − cos, sin, χ, ψ, φ, H* weights of
-/// p² and q²), the rows being (B, n) arrays and h a (B,) array.
-type BatchCoefficients<'py> = (
-    PyReadonlyArray1<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-    PyReadonlyArray2<'py, f64>,
-);
-
-/// integrate_batch(potential, coefficients, layout, q0, p0, n_steps, save_every, track, block,
-/// threads) -> dict
+/// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
+/// threads=None) -> dict
 ///
-/// Runs the batched kernel on a thread pool of `threads` (None: all cores) while this thread
-/// watches for Ctrl-C; on Ctrl-C the unfinished trajectories end "interrupted" and the result
-/// says so in `interrupted`.
+/// Runs the batched kernel on a pool of `threads` (None: all cores) while this thread watches
+/// for Ctrl-C; on Ctrl-C the unfinished trajectories end "interrupted" and `interrupted` says so.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (potential, coefficients, layout, q0, p0, n_steps, save_every, track, block, threads=None))]
+#[pyo3(signature = (potential, layout, methods, q0, p0, n_steps, save_every, form, track, threads=None))]
 fn integrate_batch<'py>(
     py: Python<'py>,
-    potential: &Bound<'py, PyAny>,
-    coefficients: BatchCoefficients<'py>,
-    layout: LayoutArrays<'py>,
+    potential: &Bound<'py, PyDict>,
+    layout: &Bound<'py, PyDict>,
+    methods: &Bound<'py, PyDict>,
     q0: PyReadonlyArray2<f64>,
     p0: PyReadonlyArray2<f64>,
     n_steps: Vec<u64>,
     save_every: Option<u64>,
+    form: &str,
     track: bool,
-    block: usize,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use trigint_core::{BatchSpec, TrajectoryMethod};
-
     let pot = NativePotential::from_spec(potential)?;
-    let (h, omc, sin, chi, psi, phi, mp, mq) = coefficients;
-    let rows = |a: &PyReadonlyArray2<f64>| -> Vec<Vec<f64>> {
-        a.as_array()
-            .rows()
-            .into_iter()
-            .map(|r| r.to_vec())
-            .collect()
-    };
-    let h = h.as_array().to_vec();
-    let (omc, sin, chi, psi, phi, mp, mq) = (
-        rows(&omc),
-        rows(&sin),
-        rows(&chi),
-        rows(&psi),
-        rows(&phi),
-        rows(&mp),
-        rows(&mq),
-    );
-    let count = h.len();
-    for (name, r) in [
-        ("one_minus_cos", &omc),
-        ("sin", &sin),
-        ("chi", &chi),
-        ("psi", &psi),
-        ("phi", &phi),
-        ("modified_p", &mp),
-        ("modified_q", &mq),
-    ] {
-        if r.len() != count {
-            return Err(PyValueError::new_err(format!(
-                "{name}: {} rows for {count} trajectories",
-                r.len()
-            )));
-        }
-    }
-    let methods: Vec<TrajectoryMethod> = (0..count)
-        .map(|t| TrajectoryMethod {
-            coefficients: MethodCoefficients {
-                h: h[t],
-                one_minus_cos: omc[t].clone(),
-                sin: sin[t].clone(),
-                chi: chi[t].clone(),
-                psi: psi[t].clone(),
-                phi: phi[t].clone(),
-            },
-            modified_p: mp[t].clone(),
-            modified_q: mq[t].clone(),
-        })
-        .collect();
-    let (omega2, modified_p, modified_q, blocks, n_blocks) = layout;
-    let lay = EnergyLayout {
-        omega2: vec1(&omega2),
-        modified_p: vec1(&modified_p),
-        modified_q: vec1(&modified_q),
-        block: blocks,
-        n_blocks,
-    };
+    let lay = convert::layout(layout)?;
+    let methods = convert::methods(methods)?;
+    let form = convert::form(form)?;
+    let record = convert::record(save_every, track);
     let n = lay.dim();
     let (q0, p0): (Vec<f64>, Vec<f64>) = (
         q0.as_array().iter().copied().collect(),
         p0.as_array().iter().copied().collect(),
     );
-    let spec = BatchSpec {
-        save_every,
-        track_energies: track,
-        block,
-    };
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
         builder = builder.num_threads(t);
@@ -323,13 +162,21 @@ fn integrate_batch<'py>(
         .map_err(|e| PyRuntimeError::new_err(format!("could not start threads: {e}")))?;
     let stop = AtomicBool::new(false);
     let mut interrupted = false;
+    let run = || {
+        pool.install(|| match &pot {
+            NativePotential::Python(p) if p.vectorized() => {
+                trigint_core::integrate_batch::<WideLanes, _>(
+                    p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
+                )
+            }
+            _ => with_potential!(&pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
+                p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
+            )),
+        })
+    };
     let out = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(|| {
-                pool.install(|| {
-                    pot.integrate_batch(&methods, &lay, &q0, &p0, &n_steps, &spec, &stop)
-                })
-            });
+            let worker = scope.spawn(run);
             while !worker.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(20));
                 if !interrupted && Python::attach(|py| py.check_signals().is_err()) {
@@ -342,60 +189,78 @@ fn integrate_batch<'py>(
     });
     let out = match out {
         Ok(Ok(o)) => o,
-        Ok(Err(e)) => return Err(pot.take_error().unwrap_or_else(|| TrigintError(e).into())),
+        Ok(Err(e)) => return Err(to_py(e, &pot)),
         Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
     };
-    let c = lay.n_channels();
+    let (count, c) = (out.len(), lay.n_blocks() + 4);
     let d = PyDict::new(py);
-    let statuses: Vec<&str> = out.iter().map(|o| o.status.as_str()).collect();
-    d.set_item("status", statuses)?;
+    let flat = |f: fn(&TrajectoryOutput) -> &Vec<f64>| -> Vec<f64> {
+        out.iter().flat_map(|o| f(o).clone()).collect()
+    };
+    d.set_item(
+        "initial_energies",
+        to_2d(py, flat(|o| &o.initial_energies), count, c)?,
+    )?;
+    d.set_item(
+        "max_deviation",
+        to_2d(py, flat(|o| &o.max_deviation), count, c)?,
+    )?;
+    d.set_item(
+        "status",
+        out.iter().map(|o| o.status.as_str()).collect::<Vec<_>>(),
+    )?;
+    d.set_item(
+        "messages",
+        out.iter().map(|o| o.message.clone()).collect::<Vec<_>>(),
+    )?;
     d.set_item(
         "steps_done",
         PyArray1::from_vec(py, out.iter().map(|o| o.steps_done).collect()),
     )?;
-    d.set_item(
-        "initial_energies",
-        to_2d(
-            py,
-            out.iter()
-                .flat_map(|o| o.initial_energies.clone())
-                .collect(),
-            count,
-            c,
-        )?,
-    )?;
-    d.set_item(
-        "max_deviation",
-        to_2d(
-            py,
-            out.iter().flat_map(|o| o.max_deviation.clone()).collect(),
-            count,
-            c,
-        )?,
-    )?;
     d.set_item("interrupted", interrupted)?;
     if save_every.is_some() {
-        let samples = pyo3::types::PyList::empty(py);
+        let samples = PyList::empty(py);
         for o in out {
-            let s = o.samples;
-            let k = s.steps.len();
-            let item = PyDict::new(py);
-            item.set_item("steps", PyArray1::from_vec(py, s.steps))?;
-            item.set_item("q", to_2d(py, s.q, k, n)?)?;
-            item.set_item("p", to_2d(py, s.p, k, n)?)?;
-            item.set_item("energies", to_2d(py, s.energies, k, c)?)?;
-            samples.append(item)?;
+            samples.append(samples_dict(py, o.samples, n, c)?)?;
         }
         d.set_item("samples", samples)?;
     }
     Ok(d)
 }
 
+/// evaluate(potential, x) -> (U at each row of x (m, n), −∇U at each row)
+#[pyfunction]
+fn evaluate<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyDict>,
+    x: PyReadonlyArray2<f64>,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>)> {
+    let pot = NativePotential::from_spec(potential)?;
+    let (m, n) = (x.shape()[0], x.shape()[1]);
+    let data: Vec<f64> = x.as_array().iter().copied().collect();
+    let r = py.detach(|| with_potential!(&pot, |p| values_and_forces(p, &data, m, n)));
+    let (v, f) = r.map_err(|e| to_py(e, &pot))?;
+    Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
+}
+
+/// instructions(potential) -> number of instructions of a compiled program's force code
+#[pyfunction]
+fn instructions(potential: &Bound<'_, PyDict>) -> PyResult<Option<usize>> {
+    Ok(NativePotential::from_spec(potential)?.instructions())
+}
+
+/// channels(n_blocks) -> the energy channel names in output order
+#[pyfunction]
+fn channels(n_blocks: usize) -> Vec<String> {
+    channel_names(n_blocks)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
-    m.add_function(wrap_pyfunction!(potential_value, m)?)?;
-    m.add_function(wrap_pyfunction!(potential_force, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(instructions, m)?)?;
+    m.add_function(wrap_pyfunction!(channels, m)?)?;
     Ok(())
 }

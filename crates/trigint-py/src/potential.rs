@@ -1,182 +1,296 @@
-//! Potentials as the binding receives them: a spec tuple from Python, turned into a core
-//! potential. Python callbacks re-attach to the interpreter for each evaluation and keep
-//! the first exception they raise so that it reaches the user unchanged.
+//! Potentials as the binding receives them, behind one dispatch: the kinds of the core and
+//! Python callables. A new core kind is one variant here and one arm in [`with_potential!`].
 
 use std::sync::Mutex;
 
-use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
-use pyo3::prelude::*;
-use trigint_core::{
-    CoreError, CoreResult, EnergyLayout, Fpu, MethodCoefficients, Polynomial, Potential, RunOutput,
-    RunSpec,
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
 };
+use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use trigint_core::{Chain, ChainTerm, CoreError, CoreResult, Fpu, Potential, Program, Real};
 
-pub(crate) enum NativePotential {
+use crate::convert::{item, linear_map, program};
+
+pub enum NativePotential {
     Fpu(Fpu),
-    Polynomial(Polynomial),
+    Program(Program),
+    Chain(Chain),
     Python(PythonCallbacks),
 }
 
+/// Runs `$body` with `$p` bound to the concrete potential: the one dispatch of the binding.
+macro_rules! with_potential {
+    ($pot:expr, |$p:ident| $body:expr) => {
+        match $pot {
+            $crate::potential::NativePotential::Fpu($p) => $body,
+            $crate::potential::NativePotential::Program($p) => $body,
+            $crate::potential::NativePotential::Chain($p) => $body,
+            $crate::potential::NativePotential::Python($p) => $body,
+        }
+    };
+}
+pub(crate) use with_potential;
+
+fn value_error(e: CoreError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
 impl NativePotential {
-    /// ("fpu", m) | ("polynomial", dim, coefficients, exponents) | ("python", dim, value, gradient)
-    pub fn from_spec(spec: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let kind: String = spec.get_item(0)?.extract()?;
-        let err = |e: CoreError| PyValueError::new_err(e.to_string());
+    /// From `{"kind": "fpu", "m"}`, `{"kind": "program", …tape, "map"?}`,
+    /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}]}` or
+    /// `{"kind": "python", "n", "value", "gradient", "vectorized"}`.
+    pub fn from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let kind: String = item(spec, "kind")?;
+        let map = |d: &Bound<'_, PyDict>| -> PyResult<Option<trigint_core::LinearMap>> {
+            match d.get_item("map")? {
+                Some(m) if !m.is_none() => Ok(Some(linear_map(m.cast::<PyDict>()?)?)),
+                _ => Ok(None),
+            }
+        };
         match kind.as_str() {
-            "fpu" => Ok(NativePotential::Fpu(
-                Fpu::new(spec.get_item(1)?.extract()?).map_err(err)?,
+            "fpu" => Ok(Self::Fpu(Fpu::new(item(spec, "m")?).map_err(value_error)?)),
+            "program" => Ok(Self::Program(
+                Program::new(&program(spec)?, map(spec)?.as_ref()).map_err(value_error)?,
             )),
-            "polynomial" => {
-                let dim: usize = spec.get_item(1)?.extract()?;
-                let coefficients: Vec<f64> = spec.get_item(2)?.extract()?;
-                let exponents: Vec<i64> = spec.get_item(3)?.extract()?;
-                Ok(NativePotential::Polynomial(
-                    Polynomial::new(dim, coefficients, &exponents).map_err(err)?,
+            "chain" => {
+                let terms: Vec<Bound<'_, PyDict>> = item(spec, "terms")?;
+                let terms = terms
+                    .iter()
+                    .map(|t| {
+                        let v: Bound<'_, PyDict> = item(t, "v")?;
+                        let m = map(t)?
+                            .ok_or_else(|| PyTypeError::new_err("chain term: missing map"))?;
+                        ChainTerm::new(m, &program(&v)?).map_err(value_error)
+                    })
+                    .collect::<PyResult<Vec<_>>>()?;
+                Ok(Self::Chain(
+                    Chain::new(item(spec, "n")?, terms).map_err(value_error)?,
                 ))
             }
-            "python" => Ok(NativePotential::Python(PythonCallbacks {
-                dim: spec.get_item(1)?.extract()?,
-                value: spec.get_item(2)?.unbind(),
-                gradient: spec.get_item(3)?.unbind(),
+            "python" => Ok(Self::Python(PythonCallbacks {
+                dim: item(spec, "n")?,
+                value: item::<Bound<'_, PyAny>>(spec, "value")?.unbind(),
+                gradient: item::<Bound<'_, PyAny>>(spec, "gradient")?.unbind(),
+                vectorized: item(spec, "vectorized")?,
                 error: Mutex::new(None),
             })),
             other => Err(PyValueError::new_err(format!(
-                "unknown potential kind {other:?}"
+                "unknown potential kind {other:?}; expected fpu, program, chain or python"
             ))),
         }
     }
 
-    /// The Python exception raised inside a callback, if any.
+    /// The Python exception raised inside a callback, if any (not a Ctrl-C, which interrupts).
     pub fn take_error(&self) -> Option<PyErr> {
         match self {
-            NativePotential::Python(p) => p.error.lock().ok()?.take(),
+            Self::Python(p) => p.error.lock().ok()?.take(),
             _ => None,
         }
     }
 
-    pub fn integrate(
-        &self,
-        co: &MethodCoefficients,
-        lay: &EnergyLayout,
-        q0: &[f64],
-        p0: &[f64],
-        spec: &RunSpec,
-        progress: &mut dyn FnMut(u64) -> bool,
-    ) -> CoreResult<RunOutput> {
+    /// Instructions of the force-only code of a compiled program (None for other kinds).
+    pub fn instructions(&self) -> Option<usize> {
         match self {
-            NativePotential::Fpu(p) => trigint_core::integrate(p, co, lay, q0, p0, spec, progress),
-            NativePotential::Polynomial(p) => {
-                trigint_core::integrate(p, co, lay, q0, p0, spec, progress)
-            }
-            NativePotential::Python(p) => {
-                trigint_core::integrate(p, co, lay, q0, p0, spec, progress)
-            }
+            Self::Program(p) => Some(p.force_instructions()),
+            _ => None,
         }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    pub fn integrate_batch(
-        &self,
-        methods: &[trigint_core::TrajectoryMethod],
-        lay: &EnergyLayout,
-        q0: &[f64],
-        p0: &[f64],
-        n_steps: &[u64],
-        spec: &trigint_core::BatchSpec,
-        stop: &std::sync::atomic::AtomicBool,
-    ) -> CoreResult<Vec<trigint_core::TrajectoryOutput>> {
-        match self {
-            NativePotential::Fpu(p) => {
-                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
-            }
-            NativePotential::Polynomial(p) => {
-                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
-            }
-            NativePotential::Python(p) => {
-                trigint_core::integrate_batch(p, methods, lay, q0, p0, n_steps, spec, stop)
-            }
-        }
-    }
-
-    fn as_dyn(&self) -> &dyn Potential {
-        match self {
-            NativePotential::Fpu(p) => p,
-            NativePotential::Polynomial(p) => p,
-            NativePotential::Python(p) => p,
-        }
-    }
-
-    pub fn values(&self, x: &[f64], m: usize, n: usize) -> CoreResult<Vec<f64>> {
-        let p = self.as_dyn();
-        p.check_dim(n)?;
-        (0..m).map(|r| p.value(&x[r * n..(r + 1) * n])).collect()
-    }
-
-    pub fn forces(&self, x: &[f64], m: usize, n: usize) -> CoreResult<Vec<f64>> {
-        let p = self.as_dyn();
-        p.check_dim(n)?;
-        let mut out = vec![0.0; m * n];
-        for r in 0..m {
-            p.force(&x[r * n..(r + 1) * n], &mut out[r * n..(r + 1) * n])?;
-        }
-        Ok(out)
     }
 }
 
-/// U and ∇U given as Python callables of a 1-d NumPy array.
-pub(crate) struct PythonCallbacks {
+/// U and ∇U as Python callables: of a 1-d array (one call per trajectory), or, vectorized, of
+/// a 2-d array (lanes, n) whose rows are trajectories (one call per bundle of lanes).
+pub struct PythonCallbacks {
     dim: usize,
     value: Py<PyAny>,
     gradient: Py<PyAny>,
+    vectorized: bool,
     error: Mutex<Option<PyErr>>,
 }
 
 impl PythonCallbacks {
-    fn fail(&self, e: PyErr) -> CoreError {
+    pub fn vectorized(&self) -> bool {
+        self.vectorized
+    }
+
+    /// Keeps the first exception for the caller; a Ctrl-C becomes an interruption.
+    fn fail(&self, py: Python<'_>, e: PyErr) -> CoreError {
+        if e.is_instance_of::<PyKeyboardInterrupt>(py) {
+            return CoreError::Interrupted;
+        }
         let msg = e.to_string();
         if let Ok(mut slot) = self.error.lock() {
             slot.get_or_insert(e);
         }
         CoreError::Potential(msg)
     }
+
+    /// The states of the lanes as the callables take them, with non-finite entries (of lanes
+    /// that have ended) replaced by 0 so that user code never sees them.
+    fn rows<L: Real>(&self, x: &[L]) -> Vec<f64> {
+        let n = x.len();
+        let mut out = vec![0.0; L::LANES * n];
+        for (i, v) in x.iter().enumerate() {
+            for b in 0..L::LANES {
+                let s = v.lane(b);
+                out[b * n + i] = if s.is_finite() { s } else { 0.0 };
+            }
+        }
+        out
+    }
+
+    fn call_value<'py>(&self, py: Python<'py>, x: &[f64], lanes: usize) -> PyResult<Vec<f64>> {
+        let n = x.len() / lanes;
+        if self.vectorized {
+            let arr = PyArray1::from_slice(py, x).reshape([lanes, n])?;
+            let r = self.value.call1(py, (arr,))?;
+            let v: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "the vectorized value function must return {lanes} floats (one per row)"
+                ))
+            })?;
+            if v.len() != lanes {
+                return Err(PyValueError::new_err(format!(
+                    "the vectorized value function returned {} values for {lanes} rows",
+                    v.len()
+                )));
+            }
+            return Ok(v.as_array().to_vec());
+        }
+        (0..lanes)
+            .map(|b| {
+                let arr = PyArray1::from_slice(py, &x[b * n..(b + 1) * n]);
+                self.value
+                    .call1(py, (arr,))?
+                    .extract::<f64>(py)
+                    .map_err(|_| PyTypeError::new_err("the value function must return one float"))
+            })
+            .collect()
+    }
+
+    fn call_gradient<'py>(&self, py: Python<'py>, x: &[f64], lanes: usize) -> PyResult<Vec<f64>> {
+        let n = x.len() / lanes;
+        if self.vectorized {
+            let arr = PyArray1::from_slice(py, x).reshape([lanes, n])?;
+            let r = self.gradient.call1(py, (arr,))?;
+            let g: PyReadonlyArray2<f64> = r.bind(py).extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "the vectorized gradient must return a float array of shape ({lanes}, {n})"
+                ))
+            })?;
+            if g.shape() != [lanes, n] {
+                return Err(PyValueError::new_err(format!(
+                    "the vectorized gradient returned shape {:?}, expected ({lanes}, {n})",
+                    g.shape()
+                )));
+            }
+            return Ok(g.as_array().iter().copied().collect());
+        }
+        let mut out = Vec::with_capacity(x.len());
+        for b in 0..lanes {
+            let arr = PyArray1::from_slice(py, &x[b * n..(b + 1) * n]);
+            let r = self.gradient.call1(py, (arr,))?;
+            let g: PyReadonlyArray1<f64> = r
+                .bind(py)
+                .extract()
+                .map_err(|_| PyTypeError::new_err("the gradient must return a 1-d float array"))?;
+            if g.len() != n {
+                return Err(PyValueError::new_err(format!(
+                    "the gradient returned {} values for {n} coordinates",
+                    g.len()
+                )));
+            }
+            out.extend(g.as_array().iter());
+        }
+        Ok(out)
+    }
 }
 
 impl Potential for PythonCallbacks {
+    type Workspace<L: Real> = ();
+    const SPECIALIZE: bool = false;
+
     fn dim(&self) -> usize {
         self.dim
     }
 
-    fn value(&self, x: &[f64]) -> CoreResult<f64> {
+    fn workspace<L: Real>(&self) {}
+
+    fn force<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        _: &mut (),
+    ) -> CoreResult<L> {
+        let rows = self.rows(x);
+        let n = x.len();
         Python::attach(|py| {
-            let arr = PyArray1::from_slice(py, x);
-            self.value
-                .call1(py, (arr,))
-                .and_then(|r| r.extract::<f64>(py))
-                .map_err(|e| self.fail(e))
+            let g = self
+                .call_gradient(py, &rows, L::LANES)
+                .map_err(|e| self.fail(py, e))?;
+            for (i, f) in force.iter_mut().enumerate() {
+                for b in 0..L::LANES {
+                    f.set_lane(b, -g[b * n + i]);
+                }
+            }
+            let mut u = L::zero();
+            if with_value {
+                let v = self
+                    .call_value(py, &rows, L::LANES)
+                    .map_err(|e| self.fail(py, e))?;
+                for (b, x) in v.iter().enumerate() {
+                    u.set_lane(b, *x);
+                }
+            }
+            Ok(u)
         })
     }
 
-    fn force(&self, x: &[f64], f: &mut [f64]) -> CoreResult<()> {
+    fn value<L: Real>(&self, x: &[L], _: &mut ()) -> CoreResult<L> {
+        let rows = self.rows(x);
         Python::attach(|py| {
-            let arr = PyArray1::from_slice(py, x);
-            let result = self.gradient.call1(py, (arr,)).map_err(|e| self.fail(e))?;
-            let grad: PyReadonlyArray1<f64> = result.bind(py).extract().map_err(|_| {
-                self.fail(PyValueError::new_err(
-                    "the gradient must return a 1-d float array",
-                ))
-            })?;
-            if grad.len() != f.len() {
-                return Err(self.fail(PyValueError::new_err(format!(
-                    "the gradient returned {} values for {} coordinates",
-                    grad.len(),
-                    f.len()
-                ))));
+            let v = self
+                .call_value(py, &rows, L::LANES)
+                .map_err(|e| self.fail(py, e))?;
+            let mut u = L::zero();
+            for (b, x) in v.iter().enumerate() {
+                u.set_lane(b, *x);
             }
-            for (fi, gi) in f.iter_mut().zip(grad.as_array().iter()) {
-                *fi = -gi;
-            }
-            Ok(())
+            Ok(u)
         })
     }
+}
+
+/// U at each row of x (m × n), and −∇U, through the core's evaluation (for tests and for
+/// evaluating potentials on data).
+pub fn values_and_forces<P: Potential>(
+    pot: &P,
+    x: &[f64],
+    rows: usize,
+    n: usize,
+) -> CoreResult<(Vec<f64>, Vec<f64>)> {
+    pot.check_dim(n)?;
+    let mut ws = pot.workspace::<f64>();
+    let (mut values, mut forces) = (vec![0.0; rows], vec![0.0; rows * n]);
+    for r in 0..rows {
+        values[r] = pot.force(
+            &x[r * n..(r + 1) * n],
+            &mut forces[r * n..(r + 1) * n],
+            true,
+            &mut ws,
+        )?;
+    }
+    Ok((values, forces))
+}
+
+/// The (m, n) array of row-major data.
+pub fn to_2d<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    rows: usize,
+    cols: usize,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    PyArray1::from_vec(py, data).reshape([rows, cols])
 }

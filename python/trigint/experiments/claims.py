@@ -96,8 +96,10 @@ def _perturbed(ds: xr.Dataset) -> list[Claim]:
         rows = np.isfinite(ds.delta.values[i])
         a, c = spread_exponent(t[rows], dev[rows], float(ds.spread_from.values[i]))
         power = float(ds.expected_power.values[i])
-        out.append(Claim(fig, f"{labels[i]}: spread of the perturbed curves ∝ t^a on t ≥ {ds.spread_from.values[i]:g}",
-                         a, "0.5 (random walk)", "±0.2", abs(a - 0.5) <= 0.2))
+        want = float(ds.attrs.get("spread_exponent", 0.5))
+        tol = float(ds.attrs.get("spread_tolerance", 0.2))
+        out.append(Claim(fig, f"{labels[i]}: spread of the perturbed curves ∝ t^a on t ≥ {ds.spread_from.values[i]:g}"
+                         f" ({rows.sum()} curves)", a, f"{want:g} (random walk)", f"±{tol:g}", abs(a - want) <= tol))
         out.append(Claim(fig, f"{labels[i]}: C in spread ≈ C ε^{power:g} √t (information)", c / eps**power,
                          "O(1)", "0.01–100", 0.01 <= c / eps**power <= 100))
     if ds.sizes["panel"] == 2 and ds.expected_power.values[1] == ds.expected_power.values[0] + 1:

@@ -191,6 +191,8 @@ def run_perturbed(fig: dict) -> xr.Dataset:
                 "spread_from": ("panel", [float(p.get("spread_from", 0.0)) for p in panels])},
         attrs={"omega": omega, "method": repr(method), "energy": energy,
                "early_ratio_max": float(fig.get("early_ratio_max", 10.0)),
+               "spread_exponent": float(fig.get("spread_exponent", 0.5)),
+               "spread_tolerance": float(fig.get("spread_tolerance", 0.2)),
                "panel_labels": "|".join(p.get("label", f"ω = {omega:g}, hω = {_pretty(p['h_omega'])}")
                                         for p in panels)},
     )

@@ -1,0 +1,189 @@
+//! Long chains: U(q) = Σ_terms Σ_b V((L q)_b), univariate functions V of sparse linear forms.
+//!
+//! The common potentials of this field have this shape: springs (FPU, Toda, Morse, Lennard-Jones
+//! between neighbours) and on-site terms. Each term is a univariate [`Program`] V (with its
+//! exact derivative) and a [`LinearMap`] L. An evaluation computes y = L q in vectorizable passes,
+//! runs V over tiles of springs (each instruction over a whole tile, so the interpretation costs
+//! little per spring), sums V in spring order and adds Lᵀ(−V'(y)) to the force.
+
+use super::linear::LinearMap;
+use super::program::{Op, Program, ProgramSpec};
+use super::Potential;
+use crate::error::{CoreError, CoreResult};
+use crate::real::Real;
+
+/// Springs per tile of the univariate evaluation.
+const TILE: usize = 128;
+
+/// One term Σ_b V((L q)_b).
+#[derive(Debug, Clone)]
+pub struct ChainTerm {
+    pub map: LinearMap,
+    pub v: Program,
+}
+
+impl ChainTerm {
+    /// V from a one-coordinate tape, applied to the rows of `map`.
+    pub fn new(map: LinearMap, v: &ProgramSpec) -> CoreResult<Self> {
+        if v.n_inputs != 1 {
+            return Err(CoreError::invalid(
+                "chain",
+                format!("V must be a function of one variable, got {}", v.n_inputs),
+            ));
+        }
+        Ok(ChainTerm {
+            v: Program::new(v, None)?,
+            map,
+        })
+    }
+}
+
+/// U(q) = Σ_terms Σ_b V_term((L_term q)_b).
+#[derive(Debug, Clone)]
+pub struct Chain {
+    n: usize,
+    terms: Vec<ChainTerm>,
+}
+
+impl Chain {
+    pub fn new(n: usize, terms: Vec<ChainTerm>) -> CoreResult<Self> {
+        if terms.is_empty() {
+            return Err(CoreError::invalid("chain", "needs at least one term"));
+        }
+        if let Some(t) = terms.iter().find(|t| t.map.cols != n) {
+            return Err(CoreError::invalid(
+                "chain",
+                format!(
+                    "a term's linear forms act on {} coordinates, not {n}",
+                    t.map.cols
+                ),
+            ));
+        }
+        Ok(Chain { n, terms })
+    }
+
+    /// A one-term chain: Σ_b V((L q)_b).
+    pub fn single(map: LinearMap, v: &ProgramSpec) -> CoreResult<Self> {
+        let n = map.cols;
+        Chain::new(n, vec![ChainTerm::new(map, v)?])
+    }
+
+    /// The tape of y ↦ c·y^k (for tests and the FPU written as a chain).
+    pub fn monomial(c: f64, k: i32) -> ProgramSpec {
+        ProgramSpec {
+            n_inputs: 1,
+            ops: vec![Op::Input(0), Op::Powi(0, k), Op::Const(c), Op::Mul(2, 1)],
+            output: 3,
+        }
+    }
+}
+
+/// Per term: the linear forms y, V'(y) as forces, V(y); and tile register files of V's codes.
+pub struct ChainWorkspace<L> {
+    y: Vec<Vec<L>>,
+    g: Vec<Vec<L>>,
+    registers: Vec<Vec<Vec<L>>>,
+}
+
+impl Potential for Chain {
+    type Workspace<L: Real> = ChainWorkspace<L>;
+    const SMALL_SHAPES: bool = false;
+
+    fn dim(&self) -> usize {
+        self.n
+    }
+
+    fn workspace<L: Real>(&self) -> ChainWorkspace<L> {
+        ChainWorkspace {
+            y: self
+                .terms
+                .iter()
+                .map(|t| vec![L::zero(); t.map.rows])
+                .collect(),
+            g: self
+                .terms
+                .iter()
+                .map(|t| vec![L::zero(); t.map.rows])
+                .collect(),
+            registers: self
+                .terms
+                .iter()
+                .map(|t| t.v.tile_registers::<L>(TILE))
+                .collect(),
+        }
+    }
+
+    fn force<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        ws: &mut ChainWorkspace<L>,
+    ) -> CoreResult<L> {
+        force[..self.n].fill(L::zero());
+        let mut value = L::zero();
+        for (t, term) in self.terms.iter().enumerate() {
+            let (y, g) = (&mut ws.y[t], &mut ws.g[t]);
+            term.map.apply(x, y);
+            value += term
+                .v
+                .eval_tiles(y, Some(g), with_value, &mut ws.registers[t], TILE);
+            term.map.apply_transpose_add(g, force);
+        }
+        Ok(value)
+    }
+
+    fn value<L: Real>(&self, x: &[L], ws: &mut ChainWorkspace<L>) -> CoreResult<L> {
+        let mut value = L::zero();
+        for (t, term) in self.terms.iter().enumerate() {
+            let y = &mut ws.y[t];
+            term.map.apply(x, y);
+            value += term.v.eval_tiles(y, None, true, &mut ws.registers[t], TILE);
+        }
+        Ok(value)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::potential::Fpu;
+
+    /// The FPU's springs in its modal variables (as in linear.rs's test).
+    fn fpu_map(m: usize) -> LinearMap {
+        let (mut ptr, mut cols, mut vals) = (vec![0], vec![], vec![]);
+        let mut push = |row: &[(usize, f64)]| {
+            for &(c, v) in row {
+                cols.push(c);
+                vals.push(v);
+            }
+            ptr.push(cols.len());
+        };
+        push(&[(0, 1.0), (m, -1.0)]);
+        for i in 1..m {
+            push(&[(i, 1.0), (m + i, -1.0), (i - 1, -1.0), (m + i - 1, -1.0)]);
+        }
+        push(&[(m - 1, 1.0), (2 * m - 1, 1.0)]);
+        LinearMap::from_csr(m + 1, 2 * m, &ptr, &cols, &vals).unwrap()
+    }
+
+    #[test]
+    fn fpu_as_a_chain_matches_the_native_chain() {
+        for m in [3, 200, 1000] {
+            let chain = Chain::single(fpu_map(m), &Chain::monomial(0.25, 4)).unwrap();
+            let fpu = Fpu::new(m).unwrap();
+            let x: Vec<f64> = (0..2 * m).map(|i| 0.4 * (i as f64 * 0.61).sin()).collect();
+            let (mut f1, mut f2) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+            let u1 = chain
+                .force(&x, &mut f1, true, &mut chain.workspace())
+                .unwrap();
+            let u2 = fpu.force(&x, &mut f2, true, &mut fpu.workspace()).unwrap();
+            assert!((u1 - u2).abs() <= 1e-14 * u2.abs(), "m={m}: {u1} {u2}");
+            for i in 0..2 * m {
+                assert!((f1[i] - f2[i]).abs() <= 1e-15, "m={m} i={i}");
+            }
+            let v = chain.value(&x, &mut chain.workspace()).unwrap();
+            assert_eq!(v.to_bits(), u1.to_bits());
+        }
+    }
+}

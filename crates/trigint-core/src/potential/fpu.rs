@@ -1,0 +1,250 @@
+//! The Fermi–Pasta–Ulam chain with alternating stiff and soft springs, written out in Rust.
+
+use super::Potential;
+use crate::energy::{at, pairwise, tree};
+use crate::error::{CoreError, CoreResult};
+use crate::real::Real;
+
+/// The FPU problem's soft springs in the variables x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ)
+/// [Hairer–Lubich–Wanner, GNI §I.5]:
+///
+/// U(x) = ¼ [ (x₀,₁ − x₁,₁)⁴ + Σᵢ₌₁^{m−1} (x₀,ᵢ₊₁ − x₁,ᵢ₊₁ − x₀,ᵢ − x₁,ᵢ)⁴ + (x₀,ₘ + x₁,ₘ)⁴ ].
+///
+/// The first m coordinates are slow (ω = 0), the last m carry the stiff frequency.
+#[derive(Debug, Clone, Copy)]
+pub struct Fpu {
+    pub m: usize,
+}
+
+/// Chains longer than this go through vectorizable passes over the springs.
+const SHORT: usize = 16;
+
+impl Fpu {
+    pub fn new(m: usize) -> CoreResult<Self> {
+        if m == 0 {
+            return Err(CoreError::invalid(
+                "m",
+                "the FPU chain needs m >= 1 stiff springs",
+            ));
+        }
+        Ok(Fpu { m })
+    }
+
+    /// g = −∇U into `f`, and U when VALUE. Written out spring by spring (no closures, no
+    /// arrays) with `m` taken from the slice length, so a fixed-size state unrolls completely
+    /// and stays in registers. U's terms go to eight partial sums: the kernels' pairwise order.
+    #[inline(always)]
+    fn short<L: Real, const VALUE: bool>(x: &[L], f: &mut [L]) -> L {
+        let m = x.len() / 2;
+        let (x0, x1) = x.split_at(m);
+        let (f0, f1) = f.split_at_mut(m);
+        let (x0, x1, f0, f1) = (&x0[..m], &x1[..m], &mut f0[..m], &mut f1[..m]);
+        let quarter = L::splat(0.25);
+        let mut parts = [L::zero(); 8];
+        let mut term = |i: usize, d: L, d3: L| {
+            if VALUE {
+                let v = quarter * (d3 * d);
+                parts[i % 8] = if i < 8 { v } else { parts[i % 8] + v };
+            }
+        };
+        // Spring 0 joins the wall to the first stiff spring: d = x₀,₁ − x₁,₁.
+        let d = x0[0] - x1[0];
+        let d3 = d * d * d;
+        term(0, d, d3);
+        f0[0] = -d3;
+        f1[0] = d3;
+        for i in 1..m {
+            // Spring i: d = (x₀,ᵢ₊₁ − x₁,ᵢ₊₁) − (x₀,ᵢ + x₁,ᵢ) (0-based: i and i − 1), grouped
+            // as a tree so that the step's critical path is one addition shorter.
+            let d = (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]);
+            let d3 = d * d * d;
+            term(i, d, d3);
+            f0[i - 1] += d3;
+            f1[i - 1] += d3;
+            f0[i] = -d3;
+            f1[i] = d3;
+        }
+        // Spring m joins the last stiff spring to the wall: d = x₀,ₘ + x₁,ₘ.
+        let d = x0[m - 1] + x1[m - 1];
+        let d3 = d * d * d;
+        term(m, d, d3);
+        f0[m - 1] -= d3;
+        f1[m - 1] -= d3;
+        if VALUE {
+            tree(&parts, m + 1)
+        } else {
+            L::zero()
+        }
+    }
+
+    /// The same numbers for long chains in vectorizable passes: the elongations d and cubes d³
+    /// of all springs, then the forces g₀,ᵢ = (−d³ᵢ) + d³ᵢ₊₁ and g₁,ᵢ = d³ᵢ + d³ᵢ₊₁
+    /// (g₀,ₘ = (−d³ₘ) − d³ₘ₊₁, g₁,ₘ = d³ₘ − d³ₘ₊₁ at the end): the operations of the single
+    /// pass, so the same forces. U is summed in the kernels' pairwise order (see
+    /// [`crate::energy::tree`]), which vectorizes.
+    #[inline(always)]
+    fn long<L: Real, const VALUE: bool>(x: &[L], f: &mut [L], ws: &mut FpuWorkspace<L>) -> L {
+        let m = x.len() / 2;
+        let (x0, x1) = x.split_at(m);
+        let (f0, f1) = f.split_at_mut(m);
+        let (ds, cubes) = (&mut ws.d[..m + 1], &mut ws.d3[..m + 1]);
+        ds[0] = x0[0] - x1[0];
+        {
+            let (a, c, ap, cp) = (&x0[1..m], &x1[1..m], &x0[..m - 1], &x1[..m - 1]);
+            let d = &mut ds[1..m];
+            for j in 0..m - 1 {
+                d[j] = (a[j] - c[j]) - (ap[j] + cp[j]);
+            }
+        }
+        ds[m] = x0[m - 1] + x1[m - 1];
+        for j in 0..m + 1 {
+            cubes[j] = ds[j] * ds[j] * ds[j];
+        }
+        let mut value = L::zero();
+        if VALUE {
+            let quarter = L::splat(0.25);
+            let (cubes, ds) = (&cubes[..m + 1], &ds[..m + 1]);
+            (value, _) = pairwise!(L, 0, m + 1, |j| {
+                (quarter * (at(cubes, j) * at(ds, j)), L::zero())
+            });
+        }
+        {
+            let (g0, g1) = (&mut f0[..m - 1], &mut f1[..m - 1]);
+            let (now, next) = (&cubes[..m - 1], &cubes[1..m]);
+            for j in 0..m - 1 {
+                g0[j] = -now[j] + next[j];
+                g1[j] = now[j] + next[j];
+            }
+        }
+        let (c, c_end) = (cubes[m - 1], cubes[m]);
+        f0[m - 1] = -c - c_end;
+        f1[m - 1] = c - c_end;
+        value
+    }
+}
+
+/// Elongations and cubes of the springs of a long chain.
+pub struct FpuWorkspace<L> {
+    d: Vec<L>,
+    d3: Vec<L>,
+}
+
+impl Potential for Fpu {
+    type Workspace<L: Real> = FpuWorkspace<L>;
+
+    fn dim(&self) -> usize {
+        2 * self.m
+    }
+
+    fn workspace<L: Real>(&self) -> FpuWorkspace<L> {
+        let springs = if self.m > SHORT { self.m + 1 } else { 0 };
+        FpuWorkspace {
+            d: vec![L::zero(); springs],
+            d3: vec![L::zero(); springs],
+        }
+    }
+
+    #[inline(always)]
+    fn force<L: Real>(
+        &self,
+        x: &[L],
+        f: &mut [L],
+        with_value: bool,
+        ws: &mut FpuWorkspace<L>,
+    ) -> CoreResult<L> {
+        Ok(match (x.len() / 2 > SHORT, with_value) {
+            (false, true) => Self::short::<L, true>(x, f),
+            (false, false) => Self::short::<L, false>(x, f),
+            (true, true) => Self::long::<L, true>(x, f, ws),
+            (true, false) => Self::long::<L, false>(x, f, ws),
+        })
+    }
+
+    #[inline(always)]
+    fn value<L: Real>(&self, x: &[L], ws: &mut FpuWorkspace<L>) -> CoreResult<L> {
+        // The same operations as the force pass with U, the force thrown away.
+        let mut f = vec![L::zero(); x.len()];
+        self.force(x, &mut f, true, ws)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::real::Lanes;
+
+    pub(crate) fn numerical_force<P: Potential>(p: &P, x: &[f64]) -> Vec<f64> {
+        let h = 1e-6;
+        let mut ws = p.workspace::<f64>();
+        (0..x.len())
+            .map(|i| {
+                let (mut a, mut b) = (x.to_vec(), x.to_vec());
+                a[i] += h;
+                b[i] -= h;
+                -(p.value(&a, &mut ws).unwrap() - p.value(&b, &mut ws).unwrap()) / (2.0 * h)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn standard_value() {
+        // x01 = 1, x11 = 1/50: U = ((0.98)^4 + (1.02)^4)/4.
+        let mut x = vec![0.0; 6];
+        x[0] = 1.0;
+        x[3] = 0.02;
+        let p = Fpu::new(3).unwrap();
+        let u = p.value(&x, &mut p.workspace()).unwrap();
+        assert!((u - 0.50120008).abs() < 1e-14, "{u}");
+    }
+
+    #[test]
+    fn force_is_minus_gradient_and_value_agrees() {
+        for m in [1, 2, 3, 5, 17, 40] {
+            let p = Fpu::new(m).unwrap();
+            let mut ws = p.workspace();
+            let x: Vec<f64> = (0..2 * m).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect();
+            let mut f = vec![0.0; 2 * m];
+            let v = p.force(&x, &mut f, true, &mut ws).unwrap();
+            assert!((v - p.value(&x, &mut ws).unwrap()).abs() < 1e-14);
+            for (a, b) in f.iter().zip(numerical_force(&p, &x)) {
+                assert!((a - b).abs() < 1e-8, "m={m}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn long_chains_give_the_single_pass_bits() {
+        for m in [17, 64, 65, 1000] {
+            let x: Vec<f64> = (0..2 * m)
+                .map(|i| 0.3 * ((i as f64) * 0.37).sin())
+                .collect();
+            let (mut short, mut long) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+            let v1 = Fpu::short::<f64, true>(&x, &mut short);
+            let mut ws = Fpu::new(m).unwrap().workspace();
+            let v2 = Fpu::long::<f64, true>(&x, &mut long, &mut ws);
+            assert_eq!(v1.to_bits(), v2.to_bits(), "m = {m}");
+            assert_eq!(short, long, "m = {m}");
+        }
+    }
+
+    #[test]
+    fn lanes_give_each_trajectory_its_bits() {
+        let p = Fpu::new(3).unwrap();
+        let xs: Vec<Vec<f64>> = (0..8)
+            .map(|b| (0..6).map(|i| ((b * 6 + i) as f64 * 0.7).cos()).collect())
+            .collect();
+        let x: Vec<Lanes<8>> = (0..6)
+            .map(|i| Lanes(std::array::from_fn(|b| xs[b][i])))
+            .collect();
+        let mut f = vec![Lanes::<8>::zero(); 6];
+        let v = p.force(&x, &mut f, true, &mut p.workspace()).unwrap();
+        for b in 0..8 {
+            let mut g = vec![0.0; 6];
+            let u = p.force(&xs[b], &mut g, true, &mut p.workspace()).unwrap();
+            assert_eq!(v.0[b].to_bits(), u.to_bits());
+            for i in 0..6 {
+                assert_eq!(f[i].0[b].to_bits(), g[i].to_bits());
+            }
+        }
+    }
+}

@@ -1,0 +1,66 @@
+//! Potentials U(q) with their forces g(q) = −∇U(q), evaluated on one trajectory or on a bundle
+//! of lanes by the same code.
+//!
+//! Kinds: [`Fpu`] (the FPU chain, written out in Rust: the reference), [`Program`] (any
+//! expression, compiled from a tape with its exact gradient), [`Chain`] (Σ_b V_b((Lq)_b):
+//! univariate programs of sparse linear forms, for long chains). The binding adds Python
+//! callables. The kernels are generic over [`Potential`]; each kind is one type, so the force is
+//! inlined into the step loop wherever the kind allows it.
+
+mod chain;
+mod fpu;
+mod linear;
+mod program;
+
+pub use chain::{Chain, ChainTerm};
+pub use fpu::Fpu;
+pub use linear::{LinearMap, Segment, SegmentCoef};
+pub use program::{Op, Program, ProgramSpec};
+
+use crate::error::{CoreError, CoreResult};
+use crate::real::Real;
+
+/// A potential U: ℝⁿ → ℝ with its force g = −∇U, on numbers of any lane width.
+pub trait Potential: Sync {
+    /// Scratch space an evaluation needs, made once per run (or per bundle) and reused.
+    type Workspace<L: Real>: Send;
+
+    /// Compiled code that gains from the compile-time shapes and the per-CPU copies of the
+    /// kernels (false for Python callbacks, whose cost is the call: they take the run-time
+    /// shape and one copy, which keeps the build small).
+    const SPECIALIZE: bool = true;
+
+    /// Worth the compile-time shapes of small problems (false for chains, which are for long
+    /// ones: fewer copies of the kernels to build).
+    const SMALL_SHAPES: bool = Self::SPECIALIZE;
+
+    /// Number of coordinates.
+    fn dim(&self) -> usize;
+
+    fn workspace<L: Real>(&self) -> Self::Workspace<L>;
+
+    /// Writes g(x) = −∇U(x) into `force` and returns U(x) when `with_value` (otherwise any
+    /// number, unused). The same operations in the same order for every lane width.
+    fn force<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        ws: &mut Self::Workspace<L>,
+    ) -> CoreResult<L>;
+
+    /// U(x) alone.
+    fn value<L: Real>(&self, x: &[L], ws: &mut Self::Workspace<L>) -> CoreResult<L>;
+
+    /// Checks that `n` coordinates fit this potential.
+    fn check_dim(&self, n: usize) -> CoreResult<()> {
+        if n == self.dim() {
+            Ok(())
+        } else {
+            Err(CoreError::DimensionMismatch {
+                expected: self.dim(),
+                got: n,
+            })
+        }
+    }
+}

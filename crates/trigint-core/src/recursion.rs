@@ -1,0 +1,503 @@
+//! The step: the recursion (trigo-mod) in its two forms, its start (trigo-q1), and the energy
+//! sums of the state it passes through. Written once over [`Real`], so one trajectory (`f64`)
+//! and a bundle of lanes (`Lanes<W>`) run the same operations in the same order.
+//!
+//! Two-step form, evaluated in summed form on d_n = q_n − q_{n−1} (the same recursion):
+//!
+//!   d_{n+1} = d_n − 2(1 − c) q_n + h²ψ g(φq_n),   q_{n+1} = q_n + d_{n+1},
+//!   p_n = (d_{n+1} + d_n) / (2hχ),
+//!
+//! started by (trigo-q1): d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g(φq_0). With 1 − c = 2 sin²(½hω̃)
+//! known to full precision this keeps the phase exact to rounding for small hω̃. On the slow
+//! coordinates (c = χ = ψ = φ = 1) it is Störmer–Verlet: d_{n+1} = d_n + h² g_n.
+//!
+//! One-step (velocity) form [GNI XIII (2.7)–(2.9)], equivalent in exact arithmetic:
+//!
+//!   q_{n+1} = q_n − (1 − c) q_n + hχ p_n + ½h²ψ g_n,
+//!   p_{n+1} = p_n − (1 − c) p_n − (s²/(hχ)) q_n + ½h (cψ/χ g_n + ψ/χ g_{n+1}).
+
+use crate::coefficients::{Coef, Weights};
+use crate::energy::{at, kinetic, modified, oscillator, pairwise, tree, Sums};
+use crate::error::CoreResult;
+use crate::potential::Potential;
+use crate::real::Real;
+use crate::shape::{Shape, Storage};
+
+/// What a step computes besides advancing.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Observe {
+    /// Nothing: advance only.
+    No,
+    /// The energy sums of the current step.
+    Energies,
+    /// The energy sums, and p_n stored with q_n kept: the state of a sample.
+    State,
+}
+
+/// The state of a bundle between steps, with its force already evaluated.
+pub struct State<L: Real, Sh: Shape> {
+    pub q: Sh::S<L>,
+    /// Two-step: d_n = q_n − q_{n−1}. One-step: unused.
+    pub d: Sh::S<L>,
+    /// p_n once observed (two-step), or the momentum (one-step).
+    pub p: Sh::S<L>,
+    /// g(φ q_n)
+    pub f: Sh::S<L>,
+    /// Scratch for φ q_n.
+    pub x: Sh::S<L>,
+    /// One-step: q_{n+1} before it becomes q, then q_n.
+    pub q_next: Sh::S<L>,
+    /// One-step: g_n while g_{n+1} is evaluated.
+    pub f_prev: Sh::S<L>,
+    /// U(q_n) when it was asked for.
+    pub u: L,
+}
+
+impl<L: Real, Sh: Shape> State<L, Sh> {
+    /// A state that owns no memory, to stand in while the real one is moved out.
+    #[inline(always)]
+    pub fn placeholder() -> Self {
+        let z = Sh::S::<L>::placeholder;
+        State {
+            q: z(),
+            d: z(),
+            p: z(),
+            f: z(),
+            x: z(),
+            q_next: z(),
+            f_prev: z(),
+            u: L::zero(),
+        }
+    }
+
+    pub fn new(sh: &Sh) -> Self {
+        let z = || Sh::S::<L>::filled(sh.n(), L::zero());
+        State {
+            q: z(),
+            d: z(),
+            p: z(),
+            f: z(),
+            x: z(),
+            q_next: z(),
+            f_prev: z(),
+            u: L::zero(),
+        }
+    }
+}
+
+/// The force g(φq) of the state's q into its `f`, and U(q) into `u` when `with_value`.
+/// `phi_is_identity` is the coefficients' flag, passed as a constant where the caller knows it.
+#[inline(always)]
+pub fn evaluate<L: Real, Sh: Shape, P: Potential>(
+    sh: &Sh,
+    pot: &P,
+    ws: &mut P::Workspace<L>,
+    k: &Coef<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+    with_value: bool,
+    phi_is_identity: bool,
+) -> CoreResult<()> {
+    if phi_is_identity {
+        st.u = pot.force(st.q.get(), st.f.get_mut(), with_value, ws)?;
+    } else {
+        let (q, x, phi) = (st.q.get(), st.x.get_mut(), k.phi.get());
+        x[..sh.ns()].copy_from_slice(&q[..sh.ns()]);
+        for i in sh.ns()..sh.n() {
+            x[i] = at(phi, sh.coef(i)) * q[i];
+        }
+        pot.force(st.x.get(), st.f.get_mut(), false, ws)?;
+        if with_value {
+            st.u = pot.value(st.q.get(), ws)?;
+        }
+    }
+    Ok(())
+}
+
+/// One oscillatory coordinate of the two-step form: from (d_n, q_n, g_n) and its numbers
+/// (2(1 − c), h²ψ, 1/(2hχ), ω², H* weights), d_{n+1}, p_n and its energy terms (p² + ω²q²,
+/// and a p² + b q² unless H* is H_ω).
+#[inline(always)]
+fn fast_term<L: Real>(d: L, q: L, f: L, k: [L; 6], plain: bool) -> (L, L, L, L) {
+    let [a, hp, inv, w2, mp, mq] = k;
+    let next = d - a * q + hp * f;
+    let p = (next + d) * inv;
+    let m = if plain {
+        L::zero()
+    } else {
+        modified(p, q, mp, mq)
+    };
+    (next, p, oscillator(p, q, w2), m)
+}
+
+/// One slow coordinate (Störmer–Verlet): d_{n+1}, p_n and p².
+#[inline(always)]
+fn slow_term<L: Real>(d: L, f: L, h2: L, inv_2h: L) -> (L, L, L) {
+    let next = d + h2 * f;
+    let p = (next + d) * inv_2h;
+    (next, p, kinetic(p))
+}
+
+/// One coordinate's work in an observing sweep: from (i, d_i, q_i), its new d, p_n and its two
+/// energy terms. (A trait with an `#[inline(always)]` method rather than a closure: closures
+/// called from two places are not reliably inlined.)
+trait Term<L> {
+    fn at(&self, i: usize, d: L, q: L, f: L) -> (L, L, L, L);
+}
+
+struct SlowTerms<L> {
+    h2: L,
+    inv_2h: L,
+}
+
+impl<L: Real> Term<L> for SlowTerms<L> {
+    #[inline(always)]
+    fn at(&self, _: usize, d: L, _: L, f: L) -> (L, L, L, L) {
+        let (next, p, e) = slow_term(d, f, self.h2, self.inv_2h);
+        (next, p, e, L::zero())
+    }
+}
+
+/// Oscillatory coordinates reading their numbers (2(1 − c), h²ψ, 1/(2hχ), ω², H* weights) from
+/// rows, at the shape's `coef(i)` (a constant for [`Fixed`](crate::shape::Fixed) shapes).
+struct FastRows<'a, L, Sh> {
+    sh: &'a Sh,
+    rows: [&'a [L]; 6],
+    plain: bool,
+}
+
+impl<L: Real, Sh: Shape> Term<L> for FastRows<'_, L, Sh> {
+    #[inline(always)]
+    fn at(&self, i: usize, d: L, q: L, f: L) -> (L, L, L, L) {
+        let (r, c) = (&self.rows, self.sh.coef(i));
+        let k = [
+            at(r[0], c),
+            at(r[1], c),
+            at(r[2], c),
+            at(r[3], c),
+            at(r[4], c),
+            at(r[5], c),
+        ];
+        fast_term(d, q, f, k, self.plain)
+    }
+}
+
+/// Oscillatory coordinates of a run-time uniform block: one set of numbers, loaded before the
+/// loop (a load from a row inside it would stop the compiler from vectorizing the loop).
+struct FastUniform<L> {
+    k: [L; 6],
+    plain: bool,
+}
+
+impl<L: Real> Term<L> for FastUniform<L> {
+    #[inline(always)]
+    fn at(&self, _: usize, d: L, q: L, f: L) -> (L, L, L, L) {
+        fast_term(d, q, f, self.k, self.plain)
+    }
+}
+
+#[inline(always)]
+fn load8<L: Copy>(x: &[L], base: usize) -> [L; 8] {
+    x[base..base + 8].try_into().expect("a chunk of eight")
+}
+
+/// Coordinates base..base+8 of [`observe_range`] through local arrays; the first chunk of a
+/// range starts the eight partial sums, later ones add to them.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn chunk<L: Real, T: Term<L>, const FIRST: bool>(
+    base: usize,
+    (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
+    store: bool,
+    term: &T,
+    e: &mut [L; 8],
+    m: &mut [L; 8],
+) {
+    let (dc, qc, fc) = (load8(d, base), load8(q, base), load8(f, base));
+    let (mut next, mut pc, mut qn) = ([L::zero(); 8], [L::zero(); 8], qc);
+    for t in 0..8 {
+        let (x, y, ee, mm) = term.at(base + t, dc[t], qc[t], fc[t]);
+        (next[t], pc[t], qn[t]) = (x, y, qc[t] + x);
+        if FIRST {
+            (e[t], m[t]) = (ee, mm);
+        } else {
+            (e[t], m[t]) = (e[t] + ee, m[t] + mm);
+        }
+    }
+    d[base..base + 8].copy_from_slice(&next);
+    if store {
+        p[base..base + 8].copy_from_slice(&pc);
+    } else {
+        q[base..base + 8].copy_from_slice(&qn);
+    }
+}
+
+/// Observing sweep over coordinates start..end: each coordinate's `term` (its new d, p and two
+/// energy terms), q advanced unless `store` (then p is stored), and the energy terms summed in
+/// the kernels' pairwise order (see [`crate::energy::tree`]). Chunks of eight go through local
+/// arrays, which cannot alias the state, so the compiler vectorizes them.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn observe_range<L: Real, T: Term<L>>(
+    start: usize,
+    end: usize,
+    (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
+    store: bool,
+    term: &T,
+) -> (L, L) {
+    let count = end - start;
+    let (mut e, mut m) = ([L::zero(); 8], [L::zero(); 8]);
+    let mut base = start;
+    if base + 8 <= end {
+        chunk::<L, T, true>(base, (q, d, p, f), store, term, &mut e, &mut m);
+        base += 8;
+        while base + 8 <= end {
+            chunk::<L, T, false>(base, (q, d, p, f), store, term, &mut e, &mut m);
+            base += 8;
+        }
+    }
+    let started = count >= 8;
+    for t in 0..end - base {
+        let i = base + t;
+        let (x, y, ee, mm) = term.at(i, d[i], q[i], f[i]);
+        d[i] = x;
+        if store {
+            p[i] = y;
+        } else {
+            q[i] += x;
+        }
+        (e[t], m[t]) = if started {
+            (e[t] + ee, m[t] + mm)
+        } else {
+            (ee, mm)
+        };
+    }
+    (tree(&e, count), tree(&m, count))
+}
+
+/// Two-step form: observes step n (when asked) and moves the state from n to n + 1, except the
+/// force at q_{n+1} (see [`evaluate`]), which must be in `f` already. Observing takes the energy
+/// sums of (q_n, p_n) in one pass with the step (the forms and summation order of
+/// [`sums_of_state`], so the same bits); for ℓ > 1 the per-block sums Σ(p² + ω²q²) go to
+/// `blocks`. With [`Observe::State`], p_n is stored and q is left at q_n; [`finish_state_step`]
+/// then completes the step. `plain` is the weights' `plain_modified`, passed as a constant where
+/// the caller knows it so that no test is left in the loops.
+#[inline(always)]
+pub fn two_step<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    w: &Weights<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+    obs: Observe,
+    plain: bool,
+    blocks: &mut [L],
+) -> Sums<L> {
+    let (ns, n) = (sh.ns(), sh.n());
+    let q = &mut st.q.get_mut()[..n];
+    let (d, p, f) = (
+        &mut st.d.get_mut()[..n],
+        &mut st.p.get_mut()[..n],
+        &st.f.get()[..n],
+    );
+    let (a, hp, inv) = (
+        &k.two_omc.get()[..n],
+        &k.h2_psi.get()[..n],
+        &k.inv_2h_chi.get()[..n],
+    );
+    let (w2, mp, mq) = (
+        &w.omega2.get()[..n],
+        &w.modified_p.get()[..n],
+        &w.modified_q.get()[..n],
+    );
+    if obs == Observe::No {
+        // Slow coordinates: Störmer–Verlet, d_{n+1} = d_n + h² g_n.
+        for i in 0..ns {
+            d[i] += k.h2 * f[i];
+            q[i] += d[i];
+        }
+        // Oscillatory coordinates: d_{n+1} = d_n − 2(1 − c) q_n + h²ψ g_n.
+        match sh.uniform().filter(|_| !Sh::FIXED) {
+            Some(c) => {
+                let (ac, hc) = (a[c], hp[c]);
+                for i in ns..n {
+                    d[i] = d[i] - ac * q[i] + hc * f[i];
+                    q[i] += d[i];
+                }
+            }
+            None => {
+                for i in ns..n {
+                    let c = sh.coef(i);
+                    d[i] = d[i] - at(a, c) * q[i] + at(hp, c) * f[i];
+                    q[i] += d[i];
+                }
+            }
+        }
+        return Sums::zero();
+    }
+    let store = obs == Observe::State;
+    let mut sums = Sums::zero();
+    let slow = SlowTerms {
+        h2: k.h2,
+        inv_2h: k.inv_2h,
+    };
+    (sums.kinetic, _) = observe_range(0, ns, (q, d, p, f), store, &slow);
+    let rows = [a, hp, inv, w2, mp, mq];
+    if let (Some(c), false) = (sh.uniform(), Sh::FIXED) {
+        // One block (the uniform shapes have one).
+        let fast = FastUniform {
+            k: rows.map(|r| r[c]),
+            plain,
+        };
+        (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
+        return sums;
+    }
+    let fast = FastRows { sh, rows, plain };
+    if sh.single_block() {
+        (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
+    } else {
+        let mut start = ns;
+        for (j, &end) in sh.block_ends().iter().enumerate() {
+            let (e, m) = observe_range(start, end, (q, d, p, f), store, &fast);
+            blocks[j] = e;
+            if j == 0 {
+                (sums.oscillatory, sums.modified) = (e, m);
+            } else {
+                sums.oscillatory += e;
+                sums.modified += m;
+            }
+            start = end;
+        }
+    }
+    sums
+}
+
+/// After a two-step [`Observe::State`] step: q_{n+1} = q_n + d_{n+1}.
+#[inline(always)]
+pub fn finish_state_step<L: Real, Sh: Shape>(sh: &Sh, st: &mut State<L, Sh>) {
+    let n = sh.n();
+    let (q, d) = (&mut st.q.get_mut()[..n], &st.d.get()[..n]);
+    for i in 0..n {
+        q[i] += d[i];
+    }
+}
+
+/// (trigo-q1) in summed form: d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g_0, q_1 = q_0 + d_1, with
+/// p_0 in `st.p` and g_0 in `st.f`.
+#[inline(always)]
+pub fn two_step_start<L: Real, Sh: Shape>(sh: &Sh, k: &Coef<L, Sh::S<L>>, st: &mut State<L, Sh>) {
+    let (ns, n) = (sh.ns(), sh.n());
+    let (q, d) = (st.q.get_mut(), st.d.get_mut());
+    let (p, f) = (st.p.get(), st.f.get());
+    let (omc, hchi, half) = (k.omc.get(), k.h_chi.get(), k.half_h2_psi.get());
+    for i in 0..ns {
+        d[i] = k.h * p[i] + k.half_h2 * f[i];
+        q[i] += d[i];
+    }
+    for i in ns..n {
+        let c = sh.coef(i);
+        d[i] = -(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * f[i];
+        q[i] += d[i];
+    }
+}
+
+/// The energy sums of a state given whole (q_n, p_n): the one-step form's observation and the
+/// initial state's. The same forms and summation order as [`two_step`].
+#[inline(always)]
+pub fn sums_of_state<L: Real, Sh: Shape>(
+    sh: &Sh,
+    w: &Weights<L, Sh::S<L>>,
+    q: &[L],
+    p: &[L],
+    plain: bool,
+    blocks: &mut [L],
+) -> Sums<L> {
+    let (ns, n) = (sh.ns(), sh.n());
+    let (w2, mp, mq) = (w.omega2.get(), w.modified_p.get(), w.modified_q.get());
+    // Every index below is below n (the shape's ranges), read without bounds tests.
+    let (q, p, w2, mp, mq) = (&q[..n], &p[..n], &w2[..n], &mp[..n], &mq[..n]);
+    if !Sh::FIXED {
+        assert!(sh.ns() <= n && sh.block_ends().iter().all(|&e| e <= n));
+    }
+    let mut sums = Sums::zero();
+    (sums.kinetic, _) = pairwise!(L, 0, ns, |i| (kinetic(at(p, i)), L::zero()));
+    macro_rules! block {
+        ($start:expr, $end:expr) => {
+            pairwise!(L, $start, $end, |i| {
+                let c = sh.coef(i);
+                let (pi, qi) = (at(p, i), at(q, i));
+                let m = if plain {
+                    L::zero()
+                } else {
+                    modified(pi, qi, at(mp, c), at(mq, c))
+                };
+                (oscillator(pi, qi, at(w2, c)), m)
+            })
+        };
+    }
+    if sh.single_block() {
+        (sums.oscillatory, sums.modified) = block!(ns, n);
+    } else {
+        let mut start = ns;
+        for (j, &end) in sh.block_ends().iter().enumerate() {
+            let (e, m) = block!(start, end);
+            blocks[j] = e;
+            if j == 0 {
+                (sums.oscillatory, sums.modified) = (e, m);
+            } else {
+                sums.oscillatory += e;
+                sums.modified += m;
+            }
+            start = end;
+        }
+    }
+    sums
+}
+
+/// One-step form, first half: q_{n+1} from (q_n, p_n, g_n); afterwards `q` holds q_{n+1},
+/// `q_next` holds q_n and `f_prev` holds g_n, and g_{n+1} is to be evaluated into `f`.
+#[inline(always)]
+pub fn one_step_position<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+) {
+    let (ns, n) = (sh.ns(), sh.n());
+    {
+        let (q, p, f) = (st.q.get(), st.p.get(), st.f.get());
+        let qn = st.q_next.get_mut();
+        let (omc, hchi, half) = (k.omc.get(), k.h_chi.get(), k.half_h2_psi.get());
+        for i in 0..ns {
+            qn[i] = q[i] + (k.h * p[i] + k.half_h2 * f[i]);
+        }
+        for i in ns..n {
+            let c = sh.coef(i);
+            qn[i] = q[i] + (-(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * f[i]);
+        }
+    }
+    std::mem::swap(&mut st.q, &mut st.q_next);
+    std::mem::swap(&mut st.f, &mut st.f_prev);
+}
+
+/// One-step form, second half: p_{n+1} from q_n, p_n, g_n and g_{n+1}.
+#[inline(always)]
+pub fn one_step_momentum<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+) {
+    let (ns, n) = (sh.ns(), sh.n());
+    let (q, f, fnext) = (st.q_next.get(), st.f_prev.get(), st.f.get());
+    let p = st.p.get_mut();
+    let (pq, omc, h0, h1) = (
+        k.p_from_q.get(),
+        k.omc.get(),
+        k.half_h_psi0.get(),
+        k.half_h_psi1.get(),
+    );
+    for i in 0..ns {
+        p[i] += k.half_h * f[i] + k.half_h * fnext[i];
+    }
+    for i in ns..n {
+        let c = sh.coef(i);
+        p[i] += at(pq, c) * q[i] - at(omc, c) * p[i] + (at(h0, c) * f[i] + at(h1, c) * fnext[i]);
+    }
+}

@@ -1,0 +1,235 @@
+//! The entry points: [`integrate`] (one trajectory) and [`integrate_batch`] (many, in bundles of
+//! lanes on a rayon pool). Both validate, choose the shape (compile-time sizes for small
+//! problems) and the instruction set, and run [`Bundle`]s: one run loop for both.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use rayon::prelude::*;
+
+use crate::bundle::{Bundle, Control};
+use crate::coefficients::MethodCoefficients;
+use crate::error::{CoreError, CoreResult};
+use crate::output::{Form, Record, TrajectoryOutput};
+use crate::potential::Potential;
+use crate::real::{Real, Scalar};
+use crate::shape::{Fixed, Layout};
+
+/// Whether the oscillatory coordinates share one frequency and one set of method numbers in
+/// every trajectory (what a [`Fixed`] shape assumes).
+fn uniform(layout: &Layout, methods: &[&MethodCoefficients]) -> bool {
+    let fast = layout.n_slow..layout.dim();
+    let same = |v: &[f64]| v[fast.clone()].windows(2).all(|w| w[0] == w[1]);
+    same(&layout.omega2)
+        && methods.iter().all(|m| {
+            [
+                &m.one_minus_cos,
+                &m.chi,
+                &m.psi,
+                &m.phi,
+                &m.psi_over_chi,
+                &m.sin2_over_h_chi,
+                &m.modified_p,
+                &m.modified_q,
+            ]
+            .iter()
+            .all(|v| same(v))
+        })
+}
+
+/// Runs `$body` with `$sh` bound to the layout's shape and `$one` to the number type of a
+/// single trajectory on it: a compile-time [`Fixed`] shape for the small one-block arrangements
+/// whose block is uniform (the state then lives in registers, in [`Scalar`]s that keep the
+/// coordinates' chains apart), else a run-time shape, [`Uniform`](crate::shape::Uniform) or
+/// [`Dynamic`](crate::shape::Dynamic) (in `f64`, whose loops over the coordinates vectorize). `Scalar` and `f64` do the same IEEE operations: the same bits.
+macro_rules! with_shape {
+    ($layout:expr, $methods:expr, |$sh:ident, $one:ident| $body:expr) => {{
+        let lay: &Layout = $layout;
+        let uniform = P::SPECIALIZE && lay.n_blocks() <= 1 && uniform(lay, $methods);
+        let small = P::SMALL_SHAPES && uniform;
+        macro_rules! fixed {
+            ($n:literal, $ns:literal) => {{
+                let $sh = &Fixed::<$n, $ns>::new();
+                #[allow(dead_code)]
+                type $one = Scalar;
+                $body
+            }};
+        }
+        match (lay.dim(), lay.n_slow, small) {
+            // m = 1 and m = 3 of the FPU chain (the paper's problem): each shape is a set of
+            // kernel copies to build, so only the sizes people run for billions of steps.
+            (2, 1, true) => fixed!(2, 1),
+            (6, 3, true) => fixed!(6, 3),
+            _ if uniform => {
+                let $sh = &lay.uniform();
+                #[allow(dead_code)]
+                type $one = f64;
+                $body
+            }
+            _ => {
+                let $sh = &lay.dynamic();
+                #[allow(dead_code)]
+                type $one = f64;
+                $body
+            }
+        }
+    }};
+}
+
+fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) -> CoreResult<()> {
+    if v.len() != n {
+        return Err(CoreError::invalid(
+            name,
+            format!("{which}has {} entries for {n} coordinates", v.len()),
+        ));
+    }
+    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        return Err(CoreError::invalid(
+            name,
+            format!("{which}entry {i} is not finite ({})", v[i]),
+        ));
+    }
+    Ok(())
+}
+
+fn check_common<P: Potential>(pot: &P, layout: &Layout, record: &Record) -> CoreResult<()> {
+    layout.validate()?;
+    pot.check_dim(layout.dim())?;
+    if record.save_every == Some(0) {
+        return Err(CoreError::invalid("save_every", "must be >= 1"));
+    }
+    Ok(())
+}
+
+/// Integrates one trajectory of q'' + Ω²q = g(q) from (q0, p0), in the layout's coordinate
+/// order, with the method's per-coordinate numbers. `control.report(step)` is called every
+/// `control.every` steps and may stop the run.
+#[allow(clippy::too_many_arguments)]
+pub fn integrate<P: Potential>(
+    pot: &P,
+    layout: &Layout,
+    method: &MethodCoefficients,
+    q0: &[f64],
+    p0: &[f64],
+    n_steps: u64,
+    form: Form,
+    record: Record,
+    control: Control,
+) -> CoreResult<TrajectoryOutput> {
+    check_common(pot, layout, &record)?;
+    let n = layout.dim();
+    method.validate(n, form == Form::TwoStep)?;
+    check_state("q0", q0, n, "")?;
+    check_state("p0", p0, n, "")?;
+    if n_steps == 0 {
+        return Err(CoreError::invalid("n_steps", "must be >= 1"));
+    }
+    let out = with_shape!(layout, &[method], |sh, One| {
+        let bundle = Bundle::<One, _, P>::new(
+            sh,
+            pot,
+            &layout.omega2,
+            form,
+            record,
+            &[method],
+            &[q0],
+            &[p0],
+            &[n_steps],
+        );
+        let mut control = control;
+        bundle.run(&mut control)
+    })?;
+    Ok(out.into_iter().next().expect("one lane, one output"))
+}
+
+/// Integrates many trajectories of one problem, each with its own method numbers (its own step
+/// size), initial values (row-major, B × n) and step count, in bundles of `L::LANES` lanes run
+/// in parallel on the current rayon pool. Each trajectory gets exactly the numbers of
+/// [`integrate`] on it alone: the bundles run the same code, lane by lane, whatever the bundle
+/// composition or the thread count. `stop` is polled every `poll` steps; once set, unfinished
+/// trajectories end "interrupted".
+#[allow(clippy::too_many_arguments)]
+pub fn integrate_batch<L: Real, P: Potential>(
+    pot: &P,
+    layout: &Layout,
+    methods: &[MethodCoefficients],
+    q0: &[f64],
+    p0: &[f64],
+    n_steps: &[u64],
+    form: Form,
+    record: Record,
+    stop: &AtomicBool,
+    poll: u64,
+) -> CoreResult<Vec<TrajectoryOutput>> {
+    check_common(pot, layout, &record)?;
+    let n = layout.dim();
+    let count = methods.len();
+    if count == 0 {
+        return Err(CoreError::invalid("q0", "the batch is empty"));
+    }
+    for (t, m) in methods.iter().enumerate() {
+        m.validate(n, form == Form::TwoStep)
+            .map_err(|e| CoreError::invalid("coefficients", format!("trajectory {t}: {e}")))?;
+    }
+    for (name, v) in [("q0", q0), ("p0", p0)] {
+        if v.len() != count * n {
+            return Err(CoreError::invalid(
+                name,
+                format!("expected {count} x {n} values, got {}", v.len()),
+            ));
+        }
+        for t in 0..count {
+            check_state(
+                name,
+                &v[t * n..(t + 1) * n],
+                n,
+                &format!("trajectory {t}: "),
+            )?;
+        }
+    }
+    if n_steps.len() != count {
+        return Err(CoreError::invalid(
+            "n_steps",
+            format!("expected {count} step counts, got {}", n_steps.len()),
+        ));
+    }
+    if let Some(t) = n_steps.iter().position(|&s| s == 0) {
+        return Err(CoreError::invalid(
+            "n_steps",
+            format!("trajectory {t}: must be >= 1"),
+        ));
+    }
+    // Neighbours in step count share a bundle, so few lanes idle while others finish.
+    let mut order: Vec<usize> = (0..count).collect();
+    order.sort_by_key(|&t| n_steps[t]);
+    let bundles: Vec<&[usize]> = order.chunks(L::LANES).collect();
+    let all: Vec<&MethodCoefficients> = methods.iter().collect();
+    let results: Vec<CoreResult<Vec<TrajectoryOutput>>> = with_shape!(layout, &all, |sh, _One| {
+        bundles
+            .par_iter()
+            .map(|ids| {
+                let m: Vec<&MethodCoefficients> = ids.iter().map(|&t| &methods[t]).collect();
+                let q: Vec<&[f64]> = ids.iter().map(|&t| &q0[t * n..(t + 1) * n]).collect();
+                let p: Vec<&[f64]> = ids.iter().map(|&t| &p0[t * n..(t + 1) * n]).collect();
+                let s: Vec<u64> = ids.iter().map(|&t| n_steps[t]).collect();
+                let bundle =
+                    Bundle::<L, _, P>::new(sh, pot, &layout.omega2, form, record, &m, &q, &p, &s);
+                let mut go_on = |_| !stop.load(Ordering::Relaxed);
+                let mut control = Control {
+                    every: poll.max(1),
+                    report: &mut go_on,
+                };
+                bundle.run(&mut control)
+            })
+            .collect()
+    });
+    let mut out: Vec<Option<TrajectoryOutput>> = vec![None; count];
+    for (ids, result) in bundles.iter().zip(results) {
+        for (&t, r) in ids.iter().zip(result?) {
+            out[t] = Some(r);
+        }
+    }
+    Ok(out
+        .into_iter()
+        .map(|r| r.expect("every trajectory belongs to one bundle"))
+        .collect())
+}

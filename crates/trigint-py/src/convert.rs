@@ -1,0 +1,175 @@
+//! Typed inputs: what the Python layer (`trigint._native`) hands over, checked and converted
+//! into core types. Errors name the field and say what was expected.
+
+use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::conversion::FromPyObjectOwned;
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use trigint_core::{Form, Layout, LinearMap, MethodCoefficients, Op, ProgramSpec, Record};
+
+/// `d[key]`, or a TypeError naming the key.
+pub fn item<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str) -> PyResult<T> {
+    let value = d
+        .get_item(key)?
+        .ok_or_else(|| PyTypeError::new_err(format!("missing field {key:?}")))?;
+    value.extract::<T>().map_err(|e| {
+        let e: PyErr = e.into();
+        PyTypeError::new_err(format!("field {key:?}: {e}"))
+    })
+}
+
+pub fn vec1(a: PyReadonlyArray1<f64>) -> Vec<f64> {
+    a.as_array().to_vec()
+}
+
+/// The problem's arrangement: `{"omega2", "n_slow", "block_ends"}`.
+pub fn layout(d: &Bound<'_, PyDict>) -> PyResult<Layout> {
+    Ok(Layout {
+        omega2: vec1(item(d, "omega2")?),
+        n_slow: item(d, "n_slow")?,
+        block_ends: item(d, "block_ends")?,
+    })
+}
+
+/// The per-coordinate rows of one method, or of a batch (2-d arrays, one row per trajectory).
+pub const METHOD_ROWS: [&str; 8] = [
+    "one_minus_cos",
+    "chi",
+    "psi",
+    "phi",
+    "psi_over_chi",
+    "sin2_over_h_chi",
+    "modified_p",
+    "modified_q",
+];
+
+fn method_from_rows(h: f64, rows: &[Vec<f64>]) -> MethodCoefficients {
+    MethodCoefficients {
+        h,
+        one_minus_cos: rows[0].clone(),
+        chi: rows[1].clone(),
+        psi: rows[2].clone(),
+        phi: rows[3].clone(),
+        psi_over_chi: rows[4].clone(),
+        sin2_over_h_chi: rows[5].clone(),
+        modified_p: rows[6].clone(),
+        modified_q: rows[7].clone(),
+    }
+}
+
+/// One method: `{"h": float, <row>: 1-d array, …}`.
+pub fn method(d: &Bound<'_, PyDict>) -> PyResult<MethodCoefficients> {
+    let rows = METHOD_ROWS
+        .iter()
+        .map(|k| item::<PyReadonlyArray1<f64>>(d, k).map(vec1))
+        .collect::<PyResult<Vec<_>>>()?;
+    Ok(method_from_rows(item(d, "h")?, &rows))
+}
+
+/// One method per trajectory: `{"h": 1-d array (B,), <row>: 2-d array (B, n), …}`.
+pub fn methods(d: &Bound<'_, PyDict>) -> PyResult<Vec<MethodCoefficients>> {
+    let h = vec1(item(d, "h")?);
+    let tables = METHOD_ROWS
+        .iter()
+        .map(|k| item::<PyReadonlyArray2<f64>>(d, k))
+        .collect::<PyResult<Vec<_>>>()?;
+    for (k, t) in METHOD_ROWS.iter().zip(&tables) {
+        if t.shape()[0] != h.len() {
+            return Err(PyValueError::new_err(format!(
+                "{k}: {} rows for {} trajectories",
+                t.shape()[0],
+                h.len()
+            )));
+        }
+    }
+    Ok((0..h.len())
+        .map(|b| {
+            let rows: Vec<Vec<f64>> = tables
+                .iter()
+                .map(|t| t.as_array().row(b).to_vec())
+                .collect();
+            method_from_rows(h[b], &rows)
+        })
+        .collect())
+}
+
+pub fn form(name: &str) -> PyResult<Form> {
+    match name {
+        "two-step" => Ok(Form::TwoStep),
+        "one-step" => Ok(Form::OneStep),
+        other => Err(PyValueError::new_err(format!(
+            "form must be 'two-step' or 'one-step', got {other:?}"
+        ))),
+    }
+}
+
+pub fn record(save_every: Option<u64>, track: bool) -> Record {
+    Record { save_every, track }
+}
+
+/// A sparse matrix in compressed rows: `{"rows", "cols", "ptr", "idx", "vals"}`.
+pub fn linear_map(d: &Bound<'_, PyDict>) -> PyResult<LinearMap> {
+    let ptr: Vec<usize> = item(d, "ptr")?;
+    let idx: Vec<usize> = item(d, "idx")?;
+    let vals = vec1(item(d, "vals")?);
+    LinearMap::from_csr(item(d, "rows")?, item(d, "cols")?, &ptr, &idx, &vals)
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// A tape: `{"n": int, "ops": [(name, a, b?) …], "output": int}`, with the operations named
+/// as in [`Op`] ("input", "const", "add", "sub", "mul", "div", "neg", "powi", "powf", "sqrt",
+/// "exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "abs", "sign").
+pub fn program(d: &Bound<'_, PyDict>) -> PyResult<ProgramSpec> {
+    let raw: Vec<Bound<'_, PyTuple>> = item(d, "ops")?;
+    let mut ops = Vec::with_capacity(raw.len());
+    for (k, t) in raw.iter().enumerate() {
+        let name: String = t.get_item(0)?.extract()?;
+        let bad =
+            |what: &str| PyValueError::new_err(format!("program operation {k} ({name:?}): {what}"));
+        let arg = |j: usize| -> PyResult<usize> {
+            t.get_item(j)
+                .and_then(|x| x.extract())
+                .map_err(|_| bad("expected an operand index"))
+        };
+        let num = |j: usize| -> PyResult<f64> {
+            t.get_item(j)
+                .and_then(|x| x.extract())
+                .map_err(|_| bad("expected a number"))
+        };
+        let op = match name.as_str() {
+            "input" => Op::Input(arg(1)?),
+            "const" => Op::Const(num(1)?),
+            "add" => Op::Add(arg(1)?, arg(2)?),
+            "sub" => Op::Sub(arg(1)?, arg(2)?),
+            "mul" => Op::Mul(arg(1)?, arg(2)?),
+            "div" => Op::Div(arg(1)?, arg(2)?),
+            "neg" => Op::Neg(arg(1)?),
+            "powi" => Op::Powi(
+                arg(1)?,
+                t.get_item(2)
+                    .and_then(|x| x.extract())
+                    .map_err(|_| bad("expected an integer exponent"))?,
+            ),
+            "powf" => Op::Powf(arg(1)?, num(2)?),
+            "sqrt" => Op::Sqrt(arg(1)?),
+            "exp" => Op::Exp(arg(1)?),
+            "log" => Op::Log(arg(1)?),
+            "sin" => Op::Sin(arg(1)?),
+            "cos" => Op::Cos(arg(1)?),
+            "tan" => Op::Tan(arg(1)?),
+            "sinh" => Op::Sinh(arg(1)?),
+            "cosh" => Op::Cosh(arg(1)?),
+            "tanh" => Op::Tanh(arg(1)?),
+            "abs" => Op::Abs(arg(1)?),
+            "sign" => Op::Sign(arg(1)?),
+            _ => return Err(bad("unknown operation")),
+        };
+        ops.push(op);
+    }
+    Ok(ProgramSpec {
+        n_inputs: item(d, "n")?,
+        ops,
+        output: item(d, "output")?,
+    })
+}
