@@ -156,6 +156,10 @@ class Compiler:
         sp = sympy()
         if isinstance(e, sp.Symbol) or e.is_Number or e.is_NumberSymbol:
             return []
+        supported = isinstance(e, sp.Add | sp.Mul | sp.Pow) or (
+            type(e).__name__ in FUNCTIONS and len(e.args) == 1)
+        if not supported:  # refused before its arguments are looked at
+            raise ValueError(f"expr: {_describe(e)} is not supported; supported are {SUPPORTED}")
         if isinstance(e, sp.Pow):
             return [e.base] if e.exp.is_Number or _is_param(e.exp, self.params) else [e.base, e.exp]
         return list(e.args)

@@ -99,7 +99,9 @@ class Method(ABC):
                 f"h: at coordinate {j} (h*omega = {xi[j]:.12g}) psi or sinc(h*omega_tilde) vanishes, "
                 "so sigma and the modified oscillatory energy are undefined; choose another h"
             )
-        omega_tilde = c["xi_tilde"] / h
+        # ω̃ = ω exactly where the method does not modify the frequency ((hω)/h is not ω in
+        # floating point, and "H*_ω = H_ω" should be recognized as such)
+        omega_tilde = np.where(c["xi_tilde"] == xi, omega, c["xi_tilde"] / h)
         return Coefficients(
             h=h, omega=omega, xi=xi, sigma=sigma, cos=1.0 - c["one_minus_cos"],
             modified_p=sigma * chi_over_sinc**2, modified_q=sigma * omega_tilde**2, **c,

@@ -555,21 +555,31 @@ impl Code {
     #[inline(always)]
     fn run<L: Real>(&self, r: &mut [L]) {
         let base = self.n_inputs + self.constants.len();
+        assert!(
+            r.len() >= base + self.instrs.len(),
+            "register file too short"
+        );
+        let p = r.as_mut_ptr();
         for (k, ins) in self.instrs.iter().enumerate() {
-            let v = match *ins {
-                Instr::Bin(op, a, b) => {
-                    let (x, y) = (r[a as usize], r[b as usize]);
-                    match op {
-                        Binary::Add => x + y,
-                        Binary::Sub => x - y,
-                        Binary::Mul => x * y,
-                        Binary::Div => x / y,
-                    }
+            // SAFETY: every operand slot precedes the instruction's own slot base + k (checked
+            // when the code was scheduled), and base + k < r.len() (asserted above). Each arm
+            // stores its result itself: a value returned through the match of a multi-lane
+            // type was split into scalar moves per lane (seen in the profile).
+            unsafe {
+                let get = |s: u32| *p.add(s as usize);
+                let out = p.add(base + k);
+                match *ins {
+                    Instr::Bin(Binary::Add, a, b) => *out = get(a) + get(b),
+                    Instr::Bin(Binary::Sub, a, b) => *out = get(a) - get(b),
+                    Instr::Bin(Binary::Mul, a, b) => *out = get(a) * get(b),
+                    Instr::Bin(Binary::Div, a, b) => *out = get(a) / get(b),
+                    Instr::Un(Unary::Neg, a) => *out = -get(a),
+                    Instr::Un(Unary::Sqrt, a) => *out = get(a).sqrt(),
+                    Instr::Un(Unary::Abs, a) => *out = get(a).abs(),
+                    Instr::Un(op, a) => *out = get(a).map(op.scalar()),
+                    Instr::Powf(a, c) => *out = get(a).map2(L::splat(c), f64::powf),
                 }
-                Instr::Un(op, a) => op.apply(r[a as usize]),
-                Instr::Powf(a, c) => r[a as usize].map2(L::splat(c), f64::powf),
-            };
-            r[base + k] = v;
+            }
         }
     }
 }
