@@ -66,6 +66,14 @@ struct Lane {
     message: String,
 }
 
+/// What a replay restarts from: q, d, p and the extremes at the last check.
+type Checkpoint<L, Sh> = (
+    <Sh as Shape>::S<L>,
+    <Sh as Shape>::S<L>,
+    <Sh as Shape>::S<L>,
+    Extremes<L>,
+);
+
 pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     sh: &'a Sh,
     pot: &'a P,
@@ -75,7 +83,7 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     k: Coef<L, Sh::S<L>>,
     w: Weights<L, Sh::S<L>>,
     st: State<L, Sh>,
-    checkpoint: (Sh::S<L>, Sh::S<L>, Sh::S<L>, Extremes<L>),
+    checkpoint: Checkpoint<L, Sh>,
     good: Observed<L, Sh>,
     ext: Extremes<L>,
     /// Σ(p² + ω²q²) per block, when ℓ > 1

@@ -6,6 +6,10 @@
 //! a lane-generic number type ([`Real`]), steps every method, for one trajectory or for bundles
 //! of them ([`bundle`]).
 
+// Loops over lanes and coordinates index several arrays of equal, validated length in lockstep;
+// written with indices they are what the vectorizer handles best (see docs/design.md).
+#![allow(clippy::needless_range_loop)]
+
 pub mod bundle;
 pub mod coefficients;
 pub mod energy;

@@ -293,7 +293,7 @@ fn a_stop_request_interrupts_every_unfinished_trajectory() {
         &case.methods,
         &case.q0,
         &case.p0,
-        &vec![100_000; 5],
+        &[100_000; 5],
         Form::TwoStep,
         Record {
             save_every: Some(1000),

@@ -13,6 +13,7 @@ fn record(save_every: u64) -> Record {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run<P: Potential>(
     pot: &P,
     lay: &Layout,
@@ -113,6 +114,7 @@ fn fpu_forms_agree_and_energy_is_bounded() {
 }
 
 /// One trajectory through a bundle of the given shape and number type.
+#[allow(clippy::too_many_arguments)]
 fn through<L: Real, Sh: Shape, P: Potential>(
     sh: &Sh,
     pot: &P,

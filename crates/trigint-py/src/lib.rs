@@ -228,13 +228,16 @@ fn integrate_batch<'py>(
     Ok(d)
 }
 
+/// U at each row and −∇U at each row.
+type ValuesAndForces<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
+
 /// evaluate(potential, x) -> (U at each row of x (m, n), −∇U at each row)
 #[pyfunction]
 fn evaluate<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyDict>,
     x: PyReadonlyArray2<f64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>)> {
+) -> PyResult<ValuesAndForces<'py>> {
     let pot = NativePotential::from_spec(potential)?;
     let (m, n) = (x.shape()[0], x.shape()[1]);
     let data: Vec<f64> = x.as_array().iter().copied().collect();
