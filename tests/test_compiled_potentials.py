@@ -218,6 +218,8 @@ def test_overflow_stops_with_blow_up_and_keeps_samples():
         sol = ti.integrate(prob, "B", [1.0], [1.0], h=0.01, n_steps=10**5, save_every=10)
     assert sol.status == "blow-up" and 0 < sol.n_steps < 10**5
     assert np.all(np.isfinite(sol.q)) and sol.t.size >= 2
+    # the last finite state is kept as a final sample, between the regular ones
+    assert sol.steps[-1] == sol.n_steps and sol.n_steps % 10 != 0
 
 
 @pytest.mark.parametrize(
