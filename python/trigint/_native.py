@@ -137,12 +137,6 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
     return out
 
 
-def batch_methods(rows: dict, lay: CoreLayout) -> dict:
-    spec = {k: np.ascontiguousarray(lay.to_core(np.asarray(rows[k], dtype=float))) for k in METHOD_ROWS}
-    spec["h"] = np.ascontiguousarray(rows["h"], dtype=float)
-    return spec
-
-
 def integrate_batch(potential_spec_core: dict, layout_spec: dict, methods: dict, q0, p0, n_steps,
                     save_every, form, track, threads) -> dict:
     """Runs a batch whose inputs are already in the core's order (see :func:`core_layout`)."""

@@ -75,3 +75,22 @@ pub fn fpu_method_b(
     p0[m] = 1.0;
     (co, layout(&w), q0, p0)
 }
+
+/// The FPU's spring elongations over the modal variables (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ) as a sparse
+/// matrix in compressed rows (ptr, cols, vals): first, inner and last springs.
+pub fn fpu_springs(m: usize) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    let (mut ptr, mut cols, mut vals) = (vec![0], vec![], vec![]);
+    let mut push = |row: &[(usize, f64)]| {
+        for &(c, v) in row {
+            cols.push(c);
+            vals.push(v);
+        }
+        ptr.push(cols.len());
+    };
+    push(&[(0, 1.0), (m, -1.0)]);
+    for i in 1..m {
+        push(&[(i, 1.0), (m + i, -1.0), (i - 1, -1.0), (m + i - 1, -1.0)]);
+    }
+    push(&[(m - 1, 1.0), (2 * m - 1, 1.0)]);
+    (ptr, cols, vals)
+}

@@ -354,18 +354,9 @@ pub fn two_step<L: Real, Sh: Shape>(
     if sh.single_block() {
         (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
     } else {
-        let mut start = ns;
-        for (j, &end) in sh.block_ends().iter().enumerate() {
-            let (e, m) = observe_range(start, end, (q, d, p, f), store, &fast);
-            blocks[j] = e;
-            if j == 0 {
-                (sums.oscillatory, sums.modified) = (e, m);
-            } else {
-                sums.oscillatory += e;
-                sums.modified += m;
-            }
-            start = end;
-        }
+        (sums.oscillatory, sums.modified) = over_blocks(ns, sh.block_ends(), blocks, |a, b| {
+            observe_range(a, b, (q, d, p, f), store, &fast)
+        });
     }
     sums
 }
@@ -397,6 +388,31 @@ pub fn two_step_start<L: Real, Sh: Shape>(sh: &Sh, k: &Coef<L, Sh::S<L>>, st: &m
         d[i] = -(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * f[i];
         q[i] += d[i];
     }
+}
+
+/// (H_ω, H*) summed over the oscillatory blocks in order, from `block(start, end)` of each;
+/// each block's H_ω goes to `blocks[j]` (the per-block energies I_j, before the ½).
+#[inline(always)]
+fn over_blocks<L: Real>(
+    ns: usize,
+    ends: &[usize],
+    blocks: &mut [L],
+    mut block: impl FnMut(usize, usize) -> (L, L),
+) -> (L, L) {
+    let (mut total, mut modified) = (L::zero(), L::zero());
+    let mut start = ns;
+    for (j, &end) in ends.iter().enumerate() {
+        let (e, m) = block(start, end);
+        blocks[j] = e;
+        if j == 0 {
+            (total, modified) = (e, m);
+        } else {
+            total += e;
+            modified += m;
+        }
+        start = end;
+    }
+    (total, modified)
 }
 
 /// The energy sums of a state given whole (q_n, p_n): the one-step form's observation and the
@@ -436,18 +452,8 @@ pub fn sums_of_state<L: Real, Sh: Shape>(
     if sh.single_block() {
         (sums.oscillatory, sums.modified) = block!(ns, n);
     } else {
-        let mut start = ns;
-        for (j, &end) in sh.block_ends().iter().enumerate() {
-            let (e, m) = block!(start, end);
-            blocks[j] = e;
-            if j == 0 {
-                (sums.oscillatory, sums.modified) = (e, m);
-            } else {
-                sums.oscillatory += e;
-                sums.modified += m;
-            }
-            start = end;
-        }
+        (sums.oscillatory, sums.modified) =
+            over_blocks(ns, sh.block_ends(), blocks, |a, b| block!(a, b));
     }
     sums
 }

@@ -149,21 +149,9 @@ mod tests {
     use super::*;
     use crate::potential::Fpu;
 
-    /// The FPU's springs in its modal variables (as in linear.rs's test).
+    /// The FPU's springs in its modal variables.
     fn fpu_map(m: usize) -> LinearMap {
-        let (mut ptr, mut cols, mut vals) = (vec![0], vec![], vec![]);
-        let mut push = |row: &[(usize, f64)]| {
-            for &(c, v) in row {
-                cols.push(c);
-                vals.push(v);
-            }
-            ptr.push(cols.len());
-        };
-        push(&[(0, 1.0), (m, -1.0)]);
-        for i in 1..m {
-            push(&[(i, 1.0), (m + i, -1.0), (i - 1, -1.0), (m + i - 1, -1.0)]);
-        }
-        push(&[(m - 1, 1.0), (2 * m - 1, 1.0)]);
+        let (ptr, cols, vals) = crate::fixtures::fpu_springs(m);
         LinearMap::from_csr(m + 1, 2 * m, &ptr, &cols, &vals).unwrap()
     }
 

@@ -217,23 +217,7 @@ impl LinearMap {
 mod tests {
     use super::*;
 
-    /// The FPU's springs in the modal variables, m = 5: first, inner and last springs.
-    fn fpu_springs(m: usize) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-        let (mut ptr, mut cols, mut vals) = (vec![0], vec![], vec![]);
-        let mut push = |row: &[(usize, f64)]| {
-            for &(c, v) in row {
-                cols.push(c);
-                vals.push(v);
-            }
-            ptr.push(cols.len());
-        };
-        push(&[(0, 1.0), (m, -1.0)]);
-        for i in 1..m {
-            push(&[(i, 1.0), (m + i, -1.0), (i - 1, -1.0), (m + i - 1, -1.0)]);
-        }
-        push(&[(m - 1, 1.0), (2 * m - 1, 1.0)]);
-        (ptr, cols, vals)
-    }
+    use crate::fixtures::fpu_springs;
 
     #[test]
     fn segments_reproduce_the_matrix_and_its_transpose() {
