@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     parser.add_argument("--smoke", action="store_true", help="tiny sizes, to check that the suite runs")
     parser.add_argument("--out", type=Path, default=None, help="results file (default benchmarks/results.md)")
     args = parser.parse_args(argv)
-    n, count, batch_steps, repeat = (200_000, 64, 2_000, 1) if args.smoke else (20_000_000, 1000, 100_000, 5)
+    n, count, batch_steps, repeat = (200_000, 64, 2_000, 1) if args.smoke else (20_000_000, 1000, 200_000, 5)
     single(*fpu()[:1], *fpu()[1], 10, True)()  # load what the first call loads lazily
     limits = limit_rows(n, count, batch_steps, repeat)
     potentials = potential_rows(n, count, batch_steps, repeat)

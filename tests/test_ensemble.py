@@ -201,3 +201,22 @@ def test_bad_batches(kwargs, error, match):
     q0, p0, h = args.pop("q0"), args.pop("p0"), args.pop("h")
     with pytest.raises(error, match=match):
         ti.ensemble(prob, "B", q0, p0, h=h, n_steps=10, **args)
+
+
+@pytest.mark.parametrize("method", ["A", "C", "D", "imex", "stormer-verlet"])
+def test_step_sizes_evaluated_together_equal_one_at_a_time(method):
+    """ensemble() evaluates every trajectory's coefficients in one elementwise call; each row
+    must be bit for bit the numbers integrate() gets for that step size alone."""
+    from trigint import _native
+    from trigint._batch import prepare
+    from trigint.methods import resolve_method
+
+    omega = np.array([0.0, 50.0, 50 * np.sqrt(2), 70.0, 0.0, 123.0, 3.0])
+    prob = ti.OscillatoryProblem(omega, ti.PythonPotential(lambda q: 0.0, lambda q: 0 * q))
+    h = np.random.default_rng(5).uniform(0.001, 0.015, 200)
+    m = resolve_method(method)
+    batch = prepare(prob, m, np.zeros(7), np.zeros(7), h, None, 10)
+    for t in range(0, 200, 13):
+        rows = _native.method_rows(m.coefficients(h[t], omega), omega > 0)
+        for k in _native.METHOD_ROWS:
+            assert np.array_equal(rows[k], getattr(batch, k)[t]), (k, t)

@@ -92,19 +92,28 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
     fields = _native.METHOD_ROWS
-    per = {k: np.empty((count, n)) for k in fields}
-    cache: dict[float, dict] = {}
-    fast = problem.omega > 0
-    for t, ht in enumerate(h_arr):
-        if ht not in cache:
+    distinct, which = np.unique(h_arr, return_inverse=True)
+    try:
+        table = _rows_for_step_sizes(method, problem.omega, distinct)
+    except ValueError:
+        # Say which trajectory's step size fails, with the method's own message.
+        for t, ht in enumerate(h_arr):
             try:
-                co = method.coefficients(float(ht), problem.omega)
+                method.coefficients(float(ht), problem.omega)
             except ValueError as exc:
                 raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
-            cache[ht] = _native.method_rows(co, fast)
-        for k in fields:
-            per[k][t] = cache[ht][k]
+        raise
+    per = {k: table[k][which] for k in fields}
     return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, **per)
+
+
+def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> dict:
+    """The core's rows for every step size in `h` (shape (D,)), each of shape (D, n): one
+    elementwise evaluation over all (step size, coordinate) pairs."""
+    d, n = h.size, omega.size
+    co = method._pointwise(np.repeat(h, n), np.tile(omega, d))
+    rows = _native.method_rows(co, np.tile(omega > 0, d))
+    return {k: v.reshape(d, n) for k, v in rows.items()}
 
 
 def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, tuple | None]:

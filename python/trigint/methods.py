@@ -76,8 +76,13 @@ class Method(ABC):
         omega = np.asarray(omega, dtype=float).reshape(-1)
         if omega.size == 0 or not np.all(np.isfinite(omega)) or np.any(omega < 0):
             raise ValueError("omega: need n >= 1 finite frequencies >= 0")
+        return self._pointwise(np.full(omega.size, h), omega, h)
+
+    def _pointwise(self, h: np.ndarray, omega: np.ndarray, h_report=None) -> Coefficients:
+        """The coefficients at the pairs (h_i, ω_i), elementwise: one coordinate of one step
+        size each. Ensembles evaluate every trajectory's step size in one call this way."""
         xi = h * omega
-        self._check_step(xi, omega, h)
+        self._check_step(xi, omega, h_report if h_report is not None else h)
         n = omega.size
         c = {k: np.ones(n) for k in ("chi", "psi", "phi")}
         c.update({k: np.zeros(n) for k in ("xi_tilde", "one_minus_cos", "sin")})
@@ -85,7 +90,7 @@ class Method(ABC):
         if np.any(fast):
             # Evaluate once per distinct hω, then scatter to the coordinates.
             distinct, inverse = np.unique(xi[fast], return_inverse=True)
-            values = self._filters(distinct, h)
+            values = self._filters(distinct, h_report if h_report is not None else h)
             for key in ("xi_tilde", "one_minus_cos", "sin", "chi", "psi", "phi"):
                 c[key][fast] = np.asarray(values[key], dtype=float)[inverse]
         self._check_chi(c["chi"], xi, omega)
@@ -103,8 +108,9 @@ class Method(ABC):
         # floating point, and "H*_ω = H_ω" should be recognized as such)
         omega_tilde = np.where(c["xi_tilde"] == xi, omega, c["xi_tilde"] / h)
         return Coefficients(
-            h=h, omega=omega, xi=xi, sigma=sigma, cos=1.0 - c["one_minus_cos"],
-            modified_p=sigma * chi_over_sinc**2, modified_q=sigma * omega_tilde**2, **c,
+            h=h_report if h_report is not None else h, omega=omega, xi=xi, sigma=sigma,
+            cos=1.0 - c["one_minus_cos"], modified_p=sigma * chi_over_sinc**2,
+            modified_q=sigma * omega_tilde**2, **c,
         )
 
     def _check_chi(self, chi: np.ndarray, xi: np.ndarray, omega: np.ndarray) -> None:

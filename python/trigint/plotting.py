@@ -126,11 +126,27 @@ def _plot_perturbed(ds):
                      f"   (black: standard data; {rows.size - 1} gray: x₀,₁(0) = 1 ± δ)", fontsize=8)
         ax.set_ylabel("H_ω(t) − H_ω(0)")
         ax.axhline(0, color="0.85", lw=0.5, zorder=0)
+        _frame_majority(ax, ds.deviation.values[i][rows])
     axes[-1, 0].set_xlabel("t")
     fig.suptitle(ds.attrs["title"], fontsize=10)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     _caption(fig, ds)
     return fig
+
+
+def _frame_majority(ax, dev: np.ndarray, factor: float = 100.0) -> None:
+    """Limits the y-range to the curves that stay in the regime, and says what leaves it."""
+    from .experiments.claims import runaway_curves
+
+    away = runaway_curves(dev, factor)
+    if not away:
+        return
+    keep = np.setdiff1d(np.arange(dev.shape[0]), away)
+    top = 1.15 * float(np.nanmax(np.abs(dev[keep])))
+    ax.set_ylim(-top, top)
+    peak = float(np.nanmax(np.abs(dev[away])))
+    ax.text(0.99, 0.97, f"{len(away)} curve(s) leave the frame (up to {peak:.3g})", transform=ax.transAxes,
+            ha="right", va="top", fontsize=7, color="0.35")
 
 
 def _plot_scan(ds):

@@ -5,6 +5,7 @@ mod convert;
 mod potential;
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -176,9 +177,16 @@ fn integrate_batch<'py>(
     };
     let out = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(run);
-            while !worker.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(20));
+            // The worker says when it is done, so a short batch returns at once; meanwhile
+            // this thread looks for Ctrl-C every 20 ms.
+            let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+            let worker = scope.spawn(move || {
+                let out = run();
+                let _ = done_tx.send(());
+                out
+            });
+            let tick = std::time::Duration::from_millis(20);
+            while let Err(RecvTimeoutError::Timeout) = done_rx.recv_timeout(tick) {
                 if !interrupted && Python::attach(|py| py.check_signals().is_err()) {
                     interrupted = true;
                     stop.store(true, Ordering::Relaxed);
