@@ -53,12 +53,6 @@ def _families(ds: xr.Dataset) -> list[Claim]:
     return out
 
 
-def robust_spread(x: np.ndarray) -> np.ndarray:
-    """1.4826 × the median absolute deviation from the median, over axis 0 (curves)."""
-    centre = np.nanmedian(x, axis=0)
-    return 1.4826 * np.nanmedian(np.abs(x - centre), axis=0)
-
-
 def runaway_curves(dev: np.ndarray, factor: float = 100.0) -> list[int]:
     """Curves whose largest |deviation| exceeds `factor` times the median curve's largest."""
     peak = np.nanmax(np.abs(dev), axis=1)
@@ -66,12 +60,14 @@ def runaway_curves(dev: np.ndarray, factor: float = 100.0) -> list[int]:
 
 
 def spread_exponent(t: np.ndarray, dev: np.ndarray, t_from: float) -> tuple[float, float]:
-    """Exponent a and constant C of spread(t) ≈ C t^a, fitted on t ≥ t_from (time-averaged in
-    logarithmic bins). The spread over the curves is the robust scale 1.4826·median|x − median|
-    (the standard deviation for normal data): one curve that runs away does not decide it."""
+    """Exponent a and constant C of spread(t) ≈ C t^a, the spread being the standard deviation
+    over the curves that stay in the regime (see :func:`runaway_curves`: one curve that runs
+    away does not decide it), fitted on t ≥ t_from (time-averaged in logarithmic bins)."""
+    keep = np.setdiff1d(np.arange(dev.shape[0]), runaway_curves(dev))
+    t, dev = t[keep], dev[keep]
     times = t[0]
     ok = np.isfinite(times) & (times >= max(t_from, times[np.isfinite(times)][1]))
-    spread = robust_spread(dev[:, ok])
+    spread = np.nanstd(dev[:, ok], axis=0)
     tt = times[ok]
     edges = np.geomspace(tt[0], tt[-1], 13)
     centre, value = [], []
