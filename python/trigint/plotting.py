@@ -154,7 +154,9 @@ def _plot_scan(ds):
     n = ds.sizes["panel"]
     fig, axes = plt.subplots(1, n, figsize=(2.3 * n, 4.4), sharey=True, squeeze=False)
     labels = ds.attrs["centre_labels"].split("|")
-    top = float(np.nanmax(ds.max_deviation.values))
+    top = float(np.nanmax([np.nanmax(ds.max_deviation.values),
+                           np.nanmax(ds.realizations.values) if "realizations" in ds and
+                           np.isfinite(ds.realizations.values).any() else 0.0]))
     for i, ax in enumerate(axes[0]):
         for j in np.flatnonzero(ds.resonance_panel.values == i):
             x = ds.resonance_h_omega.values[j]
@@ -167,7 +169,17 @@ def _plot_scan(ds):
         if k:
             half = np.sqrt(ds.centre.values[i] / ds.attrs["omega"]) / k  # |k hω − 2πr| < √h
             ax.axvspan(ds.centre.values[i] - half, ds.centre.values[i] + half, color="tab:red", alpha=0.06, lw=0)
-        ax.plot(ds.h_omega.values[i], ds.max_deviation.values[i], lw=0.6, color="black")
+        x = ds.h_omega.values[i]
+        real = ds.realizations.values[i] if "realizations" in ds else np.zeros((0, x.size))
+        if np.isfinite(real).any():
+            runs = np.concatenate([ds.max_deviation.values[i][None, :], real])
+            ax.fill_between(x, np.nanmin(runs, axis=0), np.nanmax(runs, axis=0), color="0.8", lw=0,
+                            label=f"range of {runs.shape[0]} realizations")
+            ax.plot(x, ds.max_deviation.values[i], lw=0.4, color="0.45", label="standard data")
+            ax.plot(x, np.nanmedian(runs, axis=0), lw=0.7, color="black", label="median")
+            ax.legend(fontsize=5, frameon=False, loc="upper left")
+        else:
+            ax.plot(x, ds.max_deviation.values[i], lw=0.6, color="black")
         ax.set_yscale("log")
         ax.set_title(f"centre {labels[i].replace('*', '').replace('pi', 'π')}", fontsize=9, pad=14)
         ax.set_xlabel("hω")

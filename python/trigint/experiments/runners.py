@@ -48,6 +48,23 @@ def _problem(fig: dict, omega: float):
     raise ValueError(f"spec: unknown problem {name!r}; valid: fpu, experiment1, experiment3")
 
 
+def seeded(q0: np.ndarray, p0: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The initial values of realization set `seed`: 0 is the paper's data; seed s ≥ 1 adds
+    s·10⁻¹⁰ to y₀,₁(0), so that every curve of a figure, the black one included, is another
+    realization of the same experiment (a few units in the last place are not enough: they can
+    round away in the first step)."""
+    if seed == 0:
+        return q0, p0
+    p0 = np.array(p0, dtype=float)
+    p0[0] += seed * 1e-10
+    return q0, p0
+
+
+def _problem_seeded(fig: dict, omega: float):
+    prob, (q0, p0) = _problem(fig, omega)
+    return prob, seeded(q0, p0, int(fig.get("seed", 0)))
+
+
 def _curves(jobs: list[dict], energy: str) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """Runs single trajectories in parallel threads (the core releases the interpreter lock);
     returns (t, E(t) − E(0), max over every step) per job."""
@@ -70,7 +87,7 @@ def run_families(fig: dict) -> xr.Dataset:
         jobs = []
         for l in panel["l"]:
             omega = number(panel["omega"], l=l)
-            prob, (q0, p0) = _problem(fig, omega)
+            prob, (q0, p0) = _problem_seeded(fig, omega)
             h = number(panel["h_omega"]) / omega
             n = int(round(float(panel["t_end"]) / h))
             jobs.append(dict(problem=prob, method=method, q0=q0, p0=p0, h=h, n_steps=n,
@@ -133,7 +150,7 @@ def run_perturbed(fig: dict) -> xr.Dataset:
     """Figures 2 and 4: a black curve and gray curves with x₀,₁(0) = 1 ± δ, per panel."""
     method = resolve_method(fig.get("method", "B"))
     omega = float(fig["omega"])
-    prob, (q0, p0) = _problem(fig, omega)
+    prob, (q0, p0) = _problem_seeded(fig, omega)
     energy = fig.get("energy", "oscillatory")
     panels = fig.get("panel") or [{"t_end": t, "h_omega": fig["h_omega"], "perturbed": fig.get("perturbed", 8),
                                    "expected_power": fig.get("expected_power", 2),
@@ -141,6 +158,8 @@ def run_perturbed(fig: dict) -> xr.Dataset:
     samples = int(fig.get("samples", 3000))
     if "panel_t_end" in fig:  # a reduced run's end times
         panels = [dict(p, t_end=t) for p, t in zip(panels, fig["panel_t_end"], strict=True)]
+    if "panel_spread_from" in fig:  # and where its spread is fitted
+        panels = [dict(p, spread_from=t) for p, t in zip(panels, fig["panel_spread_from"], strict=True)]
     results = []
     for panel in panels:
         h = number(panel["h_omega"]) / omega
@@ -205,36 +224,50 @@ def _pretty(expression) -> str:
 
 
 def run_scan(fig: dict) -> xr.Dataset:
-    """Figure 3: max deviation over 0 ≤ t ≤ t_end against hω, one panel per centre."""
+    """Figure 3: max deviation over 0 ≤ t ≤ t_end against hω, one panel per centre. Panels whose
+    centre has N ≤ `realizations_max_N` (where the deviation is a random walk) are also run for
+    `realizations` perturbed initial values x₀,₁(0) = 1 + δ (|δ| ≤ `delta_max`, as in Figure 2)."""
     omega = float(fig["omega"])
-    prob, (q0, p0) = _problem(fig, omega)
+    prob, (q0, p0) = _problem_seeded(fig, omega)
     centres = [number(c) for c in fig["centres"]]
     width, points = float(fig.get("width", 0.1)), int(fig.get("points", 591))
     grid = np.array([np.linspace(c - width / 2, c + width / 2, points) for c in centres])
-    s = scan(prob, fig.get("method", "B"), q0, p0, h_omega=grid.ravel(), omega_ref=omega,
-             t_end=float(fig["t_end"]), energy=fig.get("energy", "oscillatory"))
+    method, energy, t_end = fig.get("method", "B"), fig.get("energy", "oscillatory"), float(fig["t_end"])
+    s = scan(prob, method, q0, p0, h_omega=grid.ravel(), omega_ref=omega, t_end=t_end, energy=energy)
     order = int(fig.get("resonance_order", 12))
     # What the theory says at each centre: N of (num-nonres-noamal), and the central resonance.
     from ..resonance import analyze
 
     centre_n = [analyze(c / omega, [omega], N_max=10).N for c in centres]
+    # Realizations: every (panel point, δ) pair of the random-walk panels in one scan.
+    count = int(fig.get("realizations", 0))
+    deltas = perturbations(count, float(fig.get("delta_max", 7e-16))) if count else np.zeros(0)
+    walk = [i for i, n in enumerate(centre_n) if n <= int(fig.get("realizations_max_N", 1))] if count else []
+    real = np.full((len(centres), deltas.size, points), np.nan)
+    if walk:
+        h_omega = np.concatenate([np.repeat(grid[i][None, :], deltas.size, axis=0).ravel() for i in walk])
+        Q0 = np.repeat(q0[None, :], h_omega.size, axis=0)
+        Q0[:, 0] += np.tile(np.repeat(deltas, points), len(walk))
+        r = scan(prob, method, Q0, p0, h_omega=h_omega, omega_ref=omega, t_end=t_end, energy=energy)
+        real[walk] = r.values.reshape(len(walk), deltas.size, points)
     central = [min(resonant_step_sizes([omega], (c - 1e-9, c + 1e-9), order) or [None],
                    key=lambda r: r.order if r else 0) for c in centres]
     res = [(i, r.h_omega, r.k[0], r.r) for i, c in enumerate(centres)
            for r in resonant_step_sizes([omega], (c - width / 2, c + width / 2), order)]
     return xr.Dataset(
         {"max_deviation": (("panel", "point"), s.values.reshape(grid.shape)),
+         "realizations": (("panel", "realization", "point"), real),
          "n_steps": (("panel", "point"), s.n_steps.values.reshape(grid.shape).astype(np.int32)),
          "resonance_panel": ("resonance", np.array([r[0] for r in res], dtype=np.int32)),
          "resonance_h_omega": ("resonance", np.array([r[1] for r in res])),
          "resonance_k": ("resonance", np.array([r[2] for r in res], dtype=np.int32)),
          "resonance_r": ("resonance", np.array([r[3] for r in res], dtype=np.int32))},
         coords={"h_omega": (("panel", "point"), grid), "centre": ("panel", centres),
+                "delta": ("realization", deltas),
                 "centre_N": ("panel", np.array(centre_n, dtype=np.int32)),
                 "centre_k": ("panel", np.array([r.k[0] if r else 0 for r in central], dtype=np.int32)),
                 "centre_r": ("panel", np.array([r.r if r else 0 for r in central], dtype=np.int32))},
-        attrs={"omega": omega, "t_end": float(fig["t_end"]), "method": fig.get("method", "B"),
-               "resonance_order": order,
+        attrs={"omega": omega, "t_end": t_end, "method": method, "resonance_order": order,
                "centre_labels": "|".join(fig["centres"])},
     )
 
@@ -247,7 +280,7 @@ def run_methods(fig: dict) -> xr.Dataset:
     jobs = []
     for method in methods:
         for omega in omegas:
-            prob, (q0, p0) = _problem(fig, omega)
+            prob, (q0, p0) = _problem_seeded(fig, omega)
             h = problems.experiment3_step(omega) if fig["problem"] == "experiment3" else number(fig["h_omega"]) / omega
             n = int(round(float(fig["t_end"]) / h))
             jobs.append(dict(problem=prob, method=method, q0=q0, p0=p0, h=h, n_steps=n,
