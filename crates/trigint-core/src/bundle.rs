@@ -655,12 +655,15 @@ impl<
         } else {
             Observe::No
         };
+        // φ ≡ 1: a constant for compile-time shapes, else the (loop-invariant) flag, so that
+        // long chains skip the product φq and the second evaluation of U as well.
+        let phi = PHI || (!Sh::FIXED && k.phi_is_identity);
         // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
         let mut guard = L::zero();
         let zero = L::zero();
         for j in n..e {
             let sums = if TWO_STEP {
-                recursion::evaluate(sh, pot, ws, k, st, TRACK, PHI)?;
+                recursion::evaluate(sh, pot, ws, k, st, TRACK, phi)?;
                 recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums)
             } else {
                 let s = if TRACK {
@@ -684,7 +687,7 @@ impl<
                 }
             }
             if !TWO_STEP {
-                recursion::evaluate(sh, pot, ws, k, st, TRACK || j + 1 == e, PHI)?;
+                recursion::evaluate(sh, pot, ws, k, st, TRACK || j + 1 == e, phi)?;
                 recursion::one_step_momentum(sh, k, st);
             }
             if j % CHECK == 0 || j + 1 == e {
