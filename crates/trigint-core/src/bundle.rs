@@ -249,17 +249,25 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     /// [`hot`](Self::hot) with the run's constants: form, tracking, H* = H_ω, φ ≡ 1 (each a
     /// compile-time parameter, so the tight loop tests none of them).
     fn hot_dispatch(&mut self, n: u64, e: u64) -> CoreResult<Option<u64>> {
-        // φ ≡ 1 skipped only where it shows (registers of a compile-time shape): fewer copies.
-        let (plain, phi) = (self.w.plain_modified, Sh::FIXED && self.k.phi_is_identity);
-        match (self.form, self.record.track, plain, phi) {
-            (Form::TwoStep, true, true, true) => self.hot::<true, true, true, true>(n, e),
-            (Form::TwoStep, true, true, false) => self.hot::<true, true, true, false>(n, e),
-            (Form::TwoStep, true, false, true) => self.hot::<true, true, false, true>(n, e),
-            (Form::TwoStep, true, false, false) => self.hot::<true, true, false, false>(n, e),
-            (Form::TwoStep, false, _, true) => self.hot::<true, false, true, true>(n, e),
-            (Form::TwoStep, false, _, false) => self.hot::<true, false, true, false>(n, e),
-            (Form::OneStep, true, _, _) => self.hot_one_step::<true>(n, e),
-            (Form::OneStep, false, _, _) => self.hot_one_step::<false>(n, e),
+        let (track, plain) = (self.record.track, self.w.plain_modified);
+        // "φ ≡ 1" as a compile-time variant only for compile-time shapes (registers): run-time
+        // shapes read the flag in the loop. Behind `if Sh::FIXED` the other copies are never
+        // instantiated, which keeps the build short.
+        if Sh::FIXED && self.k.phi_is_identity {
+            return match (self.form, track, plain) {
+                (Form::TwoStep, true, true) => self.hot::<true, true, true, true>(n, e),
+                (Form::TwoStep, true, false) => self.hot::<true, true, false, true>(n, e),
+                (Form::TwoStep, false, _) => self.hot::<true, false, true, true>(n, e),
+                (Form::OneStep, true, _) => self.hot_one_step::<true>(n, e),
+                (Form::OneStep, false, _) => self.hot_one_step::<false>(n, e),
+            };
+        }
+        match (self.form, track, plain) {
+            (Form::TwoStep, true, true) => self.hot::<true, true, true, false>(n, e),
+            (Form::TwoStep, true, false) => self.hot::<true, true, false, false>(n, e),
+            (Form::TwoStep, false, _) => self.hot::<true, false, true, false>(n, e),
+            (Form::OneStep, true, _) => self.hot_one_step::<true>(n, e),
+            (Form::OneStep, false, _) => self.hot_one_step::<false>(n, e),
         }
     }
 

@@ -113,6 +113,7 @@ impl Potential for Chain {
         }
     }
 
+    #[inline(always)]
     fn force<L: Real>(
         &self,
         x: &[L],
@@ -133,6 +134,7 @@ impl Potential for Chain {
         Ok(value)
     }
 
+    #[inline(always)]
     fn value<L: Real>(&self, x: &[L], ws: &mut ChainWorkspace<L>) -> CoreResult<L> {
         let mut value = L::zero();
         for (t, term) in self.terms.iter().enumerate() {

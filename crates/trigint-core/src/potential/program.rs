@@ -98,16 +98,6 @@ impl Unary {
             Unary::Sign => sign,
         }
     }
-
-    #[inline(always)]
-    fn apply<L: Real>(self, x: L) -> L {
-        match self {
-            Unary::Neg => -x,
-            Unary::Sqrt => x.sqrt(),
-            Unary::Abs => x.abs(),
-            other => x.map(other.scalar()),
-        }
-    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -596,6 +586,7 @@ impl Code {
 
     /// Runs the instructions over `width` ≤ `tile` evaluations at once: slot s holds
     /// `r[s*tile..s*tile+width]`, and each instruction is one vectorizable loop.
+    #[inline(always)]
     fn run_tile<L: Real>(&self, r: &mut [L], tile: usize, width: usize) {
         let base = self.n_inputs + self.constants.len();
         for (k, ins) in self.instrs.iter().enumerate() {
@@ -612,9 +603,23 @@ impl Code {
                         Binary::Div => (0..width).for_each(|j| out[j] = x[j] / y[j]),
                     }
                 }
-                Instr::Un(op, a) => {
+                // The operation chosen once per tile, not per element (a match inside the
+                // loop compiled to a jump per element).
+                Instr::Un(Unary::Neg, a) => {
                     let x = arg(a);
-                    (0..width).for_each(|j| out[j] = op.apply(x[j]));
+                    (0..width).for_each(|j| out[j] = -x[j]);
+                }
+                Instr::Un(Unary::Sqrt, a) => {
+                    let x = arg(a);
+                    (0..width).for_each(|j| out[j] = x[j].sqrt());
+                }
+                Instr::Un(Unary::Abs, a) => {
+                    let x = arg(a);
+                    (0..width).for_each(|j| out[j] = x[j].abs());
+                }
+                Instr::Un(op, a) => {
+                    let (x, f) = (arg(a), op.scalar());
+                    (0..width).for_each(|j| out[j] = x[j].map(f));
                 }
                 Instr::Powf(a, c) => {
                     let x = arg(a);
@@ -772,7 +777,9 @@ impl Program {
     }
 
     /// A one-coordinate program over many arguments: its force (−V') at each `y[b]` into `g`,
-    /// and Σ_b V(y[b]) summed in order when `with_value`.
+    /// and Σ_b V(y[b]) in the kernels' fixed summation order when `with_value`. Inlined into
+    /// the kernel copies (an outlined copy is compiled for the baseline instruction set only).
+    #[inline(always)]
     pub(crate) fn eval_tiles<L: Real>(
         &self,
         y: &[L],
@@ -788,7 +795,10 @@ impl Program {
         };
         let code = [&self.full, &self.force_only, &self.value_only][which];
         let r = &mut registers[which];
-        let mut value = L::zero();
+        // Σ_b V(y_b) in the fixed order of the kernels' sums: term b into partial sum b mod 8,
+        // the partial sums combined by `energy::tree` (eight independent chains, not one).
+        debug_assert!(tile % 8 == 0);
+        let mut parts = [L::zero(); 8];
         for start in (0..y.len()).step_by(tile) {
             let width = tile.min(y.len() - start);
             r[..width].copy_from_slice(&y[start..start + width]);
@@ -798,12 +808,19 @@ impl Program {
                 g[start..start + width].copy_from_slice(&r[s..s + width]);
             }
             if let (true, Some(s)) = (with_value, code.value) {
-                for v in &r[s as usize * tile..][..width] {
-                    value += *v;
+                let v = &r[s as usize * tile..][..width];
+                let mut chunks = v.chunks_exact(8);
+                for c in &mut chunks {
+                    for t in 0..8 {
+                        parts[t] += c[t];
+                    }
+                }
+                for (t, x) in chunks.remainder().iter().enumerate() {
+                    parts[t] += *x;
                 }
             }
         }
-        value
+        crate::energy::tree(&parts, y.len().min(8))
     }
 
     /// The code that computes U and g (for inspection, tests and code generation).
