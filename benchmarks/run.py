@@ -104,6 +104,31 @@ def fpu_matrix(m: int) -> np.ndarray:
     return L
 
 
+def numpy_fpu(m: int):
+    """The FPU potential U and ∇U in NumPy, over the last axis (one state or a block)."""
+
+    def forms(x):
+        x0, x1 = x[..., :m], x[..., m:]
+        y = np.empty(x.shape[:-1] + (m + 1,))
+        y[..., 0] = x0[..., 0] - x1[..., 0]
+        y[..., 1:m] = x0[..., 1:] - x1[..., 1:] - x0[..., :-1] - x1[..., :-1]
+        y[..., m] = x0[..., -1] + x1[..., -1]
+        return y
+
+    def value(x):
+        return 0.25 * np.sum(forms(x) ** 4, axis=-1)
+
+    def gradient(x):
+        d = forms(x) ** 3
+        g0, g1 = d[..., :m].copy(), -d[..., :m]
+        for g in (g0, g1):
+            g[..., :-1] -= d[..., 1:m]
+            g[..., -1] += d[..., m]
+        return np.concatenate([g0, g1], axis=-1)
+
+    return value, gradient
+
+
 def row(case, base_label, base, ours_label, ours, target=None) -> dict:
     return dict(case=case, base_label=base_label, base=base, ours_label=ours_label, ours=ours,
                 ratio=ours / base, target=target)
@@ -191,10 +216,11 @@ def potential_rows(n: int, count: int, batch_steps: int, repeat: int) -> list[di
     rows.append(row("Toda springs + on-site 1 − cos, m = 3, integrate(), energies streamed", "C `toda_limit`", c,
                     "ExpressionPotential", e, 1.5))
     rows.append(row("", "C `toda_limit`", c, "ChainPotential", ch, 1.5))
-    # Python callables: one call per trajectory and step, or one per block of lanes and step.
-    fpu_native = ti.FPUPotential(3)
-    per = ti.PythonPotential(lambda q: float(fpu_native.value(q)), lambda q: fpu_native.gradient(q))
-    vec = ti.PythonPotential(lambda q: fpu_native.value(q), lambda q: fpu_native.gradient(q), vectorized=True)
+    # Python callables written in NumPy: one call per trajectory and step, or one per block of
+    # lanes and step (the same functions; they work on (n,) and (lanes, n) arrays alike).
+    value, gradient = numpy_fpu(3)
+    per = ti.PythonPotential(lambda q: float(value(q)), gradient)
+    vec = ti.PythonPotential(value, gradient, vectorized=True)
     few = 256 if count >= 256 else count
     steps_p = max(20, batch_steps // 200)
     Qp, Pp = Q0[:few], P0[:few]

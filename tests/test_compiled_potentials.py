@@ -7,6 +7,8 @@ FPU written as an expression against the native FPU; ensembles against integrate
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -209,7 +211,7 @@ def test_vectorized_python_potential_gets_blocks():
     prob = ti.OscillatoryProblem([0.0, 10.0], pot)
     ti.ensemble(prob, "B", np.random.default_rng(0).normal(size=(300, 2)), [0.0, 0.0], h=0.01, n_steps=5,
                 threads=1, progress=False)
-    assert max(s[0] for s in calls) == 128 and all(s[1] == 2 for s in calls)
+    assert max(s[0] for s in calls) == 64 and all(s[1] == 2 for s in calls)
 
 
 def test_overflow_stops_with_blow_up_and_keeps_samples():
@@ -257,3 +259,25 @@ def test_dimension_mismatch_and_bad_chains():
         ti.ChainPotential(3).add("y*z", "y", sites=[0])
     with pytest.raises(ValueError, match="no terms"):
         ti.ChainPotential(3).value([0.0, 0.0, 0.0])
+
+
+def test_vectorized_python_blocks_with_unequal_lengths_equal_integrate():
+    """A full block of 64 lanes whose trajectories end at different steps (a step size each,
+    one t_end), and one that blows up: every lane equals integrate() on it alone."""
+    u = lambda x: np.sum(x**4, axis=-1) / 4 - 0.5 * x[..., 0] ** 6  # noqa: E731
+    g = lambda x: x**3 - np.where(np.arange(x.shape[-1]) == 0, 3.0 * x[..., :1] ** 5, 0.0)  # noqa: E731
+    vec = ti.OscillatoryProblem([0.0, 30.0], ti.PythonPotential(u, g, vectorized=True))
+    one = ti.OscillatoryProblem([0.0, 30.0], ti.PythonPotential(lambda x: float(u(x)), g))
+    rng = np.random.default_rng(7)
+    Q0 = rng.normal(scale=0.3, size=(70, 2))
+    Q0[5, 0] = 1.6  # runs away under the −x⁶ term
+    h = rng.uniform(0.01, 0.03, 70)
+    with pytest.warns(RuntimeWarning):
+        ds = ti.ensemble(vec, "B", Q0, [0.0, 0.0], h=h, t_end=3.0, save_every=25, threads=1, progress=False)
+    assert ds.status.values[5] == "blow-up"
+    for k in [0, 5, 17, 40, 63, 64, 69]:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            sol = ti.integrate(one, "B", Q0[k], [0.0, 0.0], h=h[k], t_end=3.0, save_every=25)
+        assert ds.status.values[k] == sol.status
+        assert np.array_equal(ds.q.values[k][: sol.t.size], sol.q)

@@ -275,7 +275,11 @@ impl<const W: usize> Neg for Lanes<W> {
 }
 
 impl<const W: usize> Real for Lanes<W> {
-    const LANES: usize = W;
+    // Lane sets are u64 bitmasks (`nonfinite_lanes`, a bundle's active lanes): at most 64.
+    const LANES: usize = {
+        assert!(W >= 1 && W <= 64, "a bundle has 1 to 64 lanes");
+        W
+    };
     #[inline(always)]
     fn splat(x: f64) -> Self {
         Lanes([x; W])

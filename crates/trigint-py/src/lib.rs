@@ -121,7 +121,7 @@ fn integrate<'py>(
 }
 
 /// Trajectories per bundle for a vectorized Python potential: one call per bundle and step.
-type WideLanes = Lanes<128>;
+type WideLanes = Lanes<64>;
 
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
 /// threads=None) -> dict
