@@ -142,10 +142,10 @@ def test_resonant_step_sizes():
     steps = resonant_step_sizes([50.0], (0.0, 3.0), order=4)
     assert [s.h_omega for s in steps] == pytest.approx([np.pi / 2, 2 * np.pi / 3])
     assert [s.k for s in steps] == [(4,), (3,)]
-    two = resonant_step_sizes([100.0, 100 * np.sqrt(2)], (2.55, 2.65), order=2)
+    two = resonant_step_sizes([100.0, 100 * np.sqrt(2)], (2.55, 2.65), order=2, omega_ref=100.0)
     assert any(s.k == (1, 1) and s.r == 1 for s in two)
     assert all(2.55 <= s.h_omega <= 2.65 for s in two)
-    for s in resonant_step_sizes([50.0, 70.0], (0.5, 3.0), order=5):
+    for s in resonant_step_sizes([50.0, 70.0], (0.5, 3.0), order=5, omega_ref=50.0):
         h = s.h_omega / 50.0
         assert h * (np.dot(s.k, [50.0, 70.0])) == pytest.approx(2 * np.pi * s.r)
 

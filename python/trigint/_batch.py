@@ -40,6 +40,8 @@ class Batch:
 
 
 def _batched(x, name: str, n: int) -> np.ndarray:
+    if np.iscomplexobj(x):
+        raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
         a = np.asarray(x, dtype=float)
     except (TypeError, ValueError):
@@ -62,6 +64,8 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
     n = problem.dim
     q0 = _batched(q0, "q0", n)
     p0 = _batched(p0, "p0", n)
+    if np.iscomplexobj(h) or isinstance(h, bool | str):
+        raise TypeError(f"h: expected a positive number or an array of them, got {h!r}")
     h_arr = np.asarray(h, dtype=float).reshape(-1) if np.ndim(h) else np.asarray([h], dtype=float)
     if np.ndim(h) > 1:
         raise ValueError(f"h: expected a scalar or shape (B,), got shape {np.shape(h)}")
@@ -84,6 +88,8 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
             raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
         steps = np.full(count, int(n_steps), dtype=np.int64)
     else:
+        if isinstance(t_end, bool) or not isinstance(t_end, int | float | np.integer | np.floating):
+            raise TypeError(f"t_end: expected a number, got {t_end!r} ({type(t_end).__name__})")
         t_end = float(t_end)
         if not np.isfinite(t_end) or t_end <= 0:
             raise ValueError(f"t_end: must be finite and > 0, got {t_end}")

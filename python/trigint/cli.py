@@ -53,15 +53,23 @@ def _run_toml(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="trigint", description=__doc__)
+    from trigint import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="trigint",
+        description="Trigonometric integrators for highly oscillatory Hamiltonian systems: integrate the "
+                    "FPU problem, check the non-resonance conditions at a step size, reproduce the paper's "
+                    "figures, or run an experiment spec.")
+    parser.add_argument("--version", action="version", version=f"trigint {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("fpu", help="integrate the FPU problem and plot the oscillatory energy")
-    p.add_argument("--m", type=int, default=3)
-    p.add_argument("--omega", type=float, default=50.0)
+    p.add_argument("--m", type=int, default=3, help="number of stiff springs (default 3)")
+    p.add_argument("--omega", type=float, default=50.0, help="stiff frequency ω (default 50)")
     p.add_argument("--h-omega", type=float, default=2 * 3.141592653589793 / 3, help="hω (default 2π/3)")
     p.add_argument("--method", default="B", help="A–E, a filter alias, imex or stormer-verlet")
-    p.add_argument("--t-end", type=float, default=3000.0)
-    p.add_argument("--out", default="reproduction")
+    p.add_argument("--t-end", type=float, default=3000.0, help="end time (default 3000)")
+    p.add_argument("--out", default="reproduction", help="output folder for the plot (default ./reproduction)")
     p.set_defaults(run=_fpu)
 
     r = sub.add_parser("resonance", help="the paper's non-resonance conditions and assumptions at a step size",
@@ -86,8 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ru = sub.add_parser("run", help="run an experiment spec (a TOML file, e.g. a copied figure spec)")
     ru.add_argument("spec", help="path of the TOML spec, or fig1 … fig5")
-    ru.add_argument("--out", default="reproduction")
-    ru.add_argument("--quick", action="store_true")
+    ru.add_argument("--out", default="reproduction", help="output folder (default ./reproduction)")
+    ru.add_argument("--quick", action="store_true", help="apply the spec's [quick] table: a reduced run")
     ru.set_defaults(run=_run_toml)
     return parser
 
@@ -95,9 +103,21 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "out", None) is not None:
+            # Before any work: an output folder that cannot be made fails now, not after the run.
+            try:
+                Path(args.out).mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ValueError(f"--out: cannot create the folder {args.out!r}: {exc.strerror}") from None
         return args.run(args)
-    except (ValueError, TypeError) as exc:
-        print(f"trigint: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print("trigint: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # one clear line, never a traceback (unless --debug)
+        if args.debug:
+            raise
+        kind = "" if isinstance(exc, ValueError | TypeError) else f"{type(exc).__name__}: "
+        print(f"trigint: error: {kind}{exc}", file=sys.stderr)
         return 2
 
 

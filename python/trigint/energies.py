@@ -39,7 +39,7 @@ def layout(problem: OscillatoryProblem, coefficients: Coefficients | None) -> di
                 block=problem.blocks, n_blocks=problem.n_blocks)
 
 
-def energies(problem: OscillatoryProblem, q, p, method: Method | None = None,
+def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = None,
              h: float | None = None) -> xr.Dataset:
     """All energies at states (q, p) of shape (n,) or (m, n).
 
@@ -65,6 +65,10 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | None = None,
         )
     if (method is None) != (h is None):
         raise ValueError("method, h: give both (for the modified oscillatory energy) or neither")
+    if method is not None:
+        from .methods import resolve_method
+
+        method = resolve_method(method)
     coefficients = method.coefficients(h, problem.omega) if method is not None else None
     w = layout(problem, coefficients)
     q2, p2 = np.atleast_2d(q), np.atleast_2d(p)

@@ -86,7 +86,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
                                    or save_every < 1):
         raise ValueError(f"save_every: must be an integer >= 1 or None, got {save_every!r}")
-    if threads is not None and (not isinstance(threads, int | np.integer) or threads < 1):
+    if not isinstance(track_energies, bool | np.bool_):
+        raise TypeError(f"track_energies: expected True or False, got {track_energies!r}")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int | np.integer)
+                                or threads < 1):
         raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
     count = len(batch)
     chunk = _chunk_size(chunk_size, count, client, threads)

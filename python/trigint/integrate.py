@@ -81,8 +81,9 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     h = _check_h(h)
     n_steps = _resolve_steps(h, t_end, n_steps)
     save_every = _positive_int(save_every, "save_every")
-    if form not in FORMS:
+    if not isinstance(form, str) or form not in FORMS:
         raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
+    track_energies = _flag(track_energies, "track_energies")
     q0 = _state(q0, "q0", problem.dim)
     p0 = _state(p0, "p0", problem.dim)
     n_samples = n_steps // save_every + 2
@@ -130,11 +131,8 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
     if (t_end is None) == (n_steps is None):
         raise ValueError("t_end, n_steps: give exactly one of them")
     if n_steps is not None:
-        return _positive_int(n_steps, "n_steps", allow_zero=True)
-    try:
-        t_end = float(t_end)
-    except (TypeError, ValueError):
-        raise TypeError(f"t_end: expected a number, got {type(t_end).__name__}") from None
+        return _positive_int(n_steps, "n_steps")
+    t_end = _number(t_end, "t_end")
     if not np.isfinite(t_end) or t_end <= 0:
         raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
     steps = round(t_end / h)
@@ -143,18 +141,30 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
     return int(steps)
 
 
+def _number(value, name: str) -> float:
+    """A real number (not a string, a bool or a complex)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name}: expected a number, got {value!r} ({type(value).__name__})")
+    return float(value)
+
+
+def _flag(value, name: str) -> bool:
+    if not isinstance(value, bool | np.bool_):
+        raise TypeError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
 def _positive_int(value, name: str, allow_zero: bool = False) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        if isinstance(value, float | np.floating) and float(value).is_integer():
-            value = int(value)
-        else:
-            raise TypeError(f"{name}: expected an integer, got {value!r}")
+        raise TypeError(f"{name}: expected an integer, got {value!r} ({type(value).__name__})")
     if value < (0 if allow_zero else 1):
         raise ValueError(f"{name}: must be {'>= 0' if allow_zero else '>= 1'}, got {value}")
     return int(value)
 
 
 def _state(x, name: str, n: int) -> np.ndarray:
+    if np.iscomplexobj(x):
+        raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
         a = np.ascontiguousarray(x, dtype=float)
     except (TypeError, ValueError):

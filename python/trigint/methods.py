@@ -242,6 +242,24 @@ class ModifiedTrigonometric(Method):
             raise TypeError("chi: expected a callable of h*omega_tilde or 'mclachlan-stern'")
         self.chi = chi or sinc
         self.name = name
+        self._check_frequency_map()
+
+    def _check_frequency_map(self) -> None:
+        """hω ↦ hω̃ must map 0 to 0 and increase (paper §2.3); checked on [0, 1]."""
+        xi = np.linspace(0.0, 1.0, 65)
+        try:
+            xt = self.modified_h_omega(xi)
+        except (TypeError, ValueError, ArithmeticError) as exc:
+            raise ValueError(f"omega_tilde: could not be evaluated on [0, 1]: {exc}") from None
+        if abs(xt[0]) > 1e-12:
+            raise ValueError(f"omega_tilde: must map 0 to 0, got omega_tilde(0) = {xt[0]:.6g}")
+        steps = np.diff(xt)
+        if not np.all(steps > 0):
+            j = int(np.flatnonzero(~(steps > 0))[0])
+            raise ValueError(
+                "omega_tilde: must be increasing (h*omega -> h*omega_tilde, paper §2.3); it is not between "
+                f"{xi[j]:.4g} and {xi[j + 1]:.4g} ({xt[j]:.6g} -> {xt[j + 1]:.6g})"
+            )
 
     def modified_h_omega(self, xi):
         """hω ↦ hω̃, vectorized."""

@@ -32,10 +32,28 @@ class ResonantStep:
         return f"k={self.k}, r={self.r}"
 
 
+#: the most integer vectors k that resonant_step_sizes enumerates (about a second of work)
+MAX_VECTORS = 10**6
+
+
+def _half_ball_size(d: int, order: int) -> int:
+    """Number of k ∈ ℤ^d with 0 < ‖k‖₁ ≤ order, one of each pair ±k."""
+    from math import comb
+
+    return sum(2**j * comb(d, j) * comb(order, j) for j in range(1, min(d, order) + 1)) // 2
+
+
+def _largest_order(d: int) -> int:
+    k = 1
+    while _half_ball_size(d, k + 1) <= MAX_VECTORS:
+        k += 1
+    return k
+
+
 def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | None = None) -> list[ResonantStep]:
     """Every hω_ref in `h_omega_range` with h k·ω = 2πr for some k, ‖k‖₁ ≤ order, r ≥ 1.
 
-    h is measured through hω_ref (default: the smallest non-zero frequency), as on the axes of
+    h is measured through hω_ref (default: the largest frequency, as in `scan()`), as on the axes of
     the paper's Figure 3; for one frequency these are the hω = 2πr/k. Each step size is listed
     once, with the k of smallest norm (and r, k coprime for one frequency). Sorted by hω_ref.
 
@@ -51,7 +69,14 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
         raise ValueError(f"h_omega_range: need 0 <= low < high, got ({lo}, {hi})")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise ValueError(f"order: must be an integer >= 1, got {order!r}")
-    ref = float(np.min(w)) if omega_ref is None else float(omega_ref)
+    vectors = _half_ball_size(w.size, int(order))
+    if vectors > MAX_VECTORS:
+        raise ValueError(
+            f"order: {order} with {w.size} frequencies means {vectors:.3g} integer vectors k; at most "
+            f"{MAX_VECTORS:.0e} are enumerated (choose order <= {_largest_order(w.size)})"
+        )
+    # The largest frequency, as scan() and the paper's figures use it.
+    ref = float(np.max(w)) if omega_ref is None else float(omega_ref)
     if not ref > 0:
         raise ValueError(f"omega_ref: must be > 0, got {ref}")
     found: dict[float, ResonantStep] = {}

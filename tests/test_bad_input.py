@@ -1,0 +1,121 @@
+"""Bad input gets a ValueError or TypeError naming the argument; faults never lose work.
+
+Each case here reproduced a reported failure first (a silent truncation, a wrong default, an
+exception of another type, a run that went on for minutes)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import trigint as ti
+from trigint.resonance import resonant_step_sizes
+
+PROB = ti.problems.fpu()
+Q0, P0 = ti.problems.fpu_initial()
+H = 2 * np.pi / 3 / 50
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"n_steps": 0}, ValueError, "n_steps: must be >= 1"),
+        ({"n_steps": 100.0}, TypeError, "n_steps: expected an integer"),
+        ({"t_end": "10"}, TypeError, "t_end: expected a number"),
+        ({"t_end": True}, TypeError, "t_end: expected a number"),
+        ({"n_steps": 10, "track_energies": "no"}, TypeError, "track_energies: expected True or False"),
+        ({"n_steps": 10, "form": 3}, ValueError, "form: must be one of"),
+        ({"n_steps": 10, "save_every": 2.5}, TypeError, "save_every: expected an integer"),
+    ],
+)
+def test_integrate_arguments(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        ti.integrate(PROB, "B", Q0, P0, h=H, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"n_steps": 10, "threads": True}, ValueError, "threads: must be an integer"),
+        ({"t_end": "10"}, TypeError, "t_end: expected a number"),
+        ({"n_steps": 10, "track_energies": "no"}, TypeError, "track_energies: expected True or False"),
+    ],
+)
+def test_ensemble_arguments(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        ti.ensemble(PROB, "B", Q0, P0, h=H, progress=False, **kwargs)
+
+
+def test_complex_input_is_refused_not_truncated():
+    with pytest.raises(TypeError, match="q0: complex values are not allowed"):
+        ti.integrate(PROB, "B", Q0 + 1e-3j, P0, h=H, n_steps=10)
+    with pytest.raises(TypeError, match="p0: complex values are not allowed"):
+        ti.ensemble(PROB, "B", Q0, P0 * (1 + 0j), h=H, n_steps=10, progress=False)
+    with pytest.raises(TypeError, match="h: expected a positive number"):
+        ti.ensemble(PROB, "B", Q0, P0, h=H + 0j, n_steps=10, progress=False)
+
+
+def test_energies_accepts_method_names():
+    named = ti.energies(PROB, Q0, P0, method="B", h=H)
+    obj = ti.energies(PROB, Q0, P0, method=ti.Trigonometric("B"), h=H)
+    assert float(named["modified_oscillatory"]) == float(obj["modified_oscillatory"])
+
+
+@pytest.mark.parametrize(
+    ("omega_tilde", "match"),
+    [
+        (lambda x: -x, "must be increasing"),
+        (lambda x: x + 0.5, "must map 0 to 0"),
+        (lambda x: np.sin(6 * x), "must be increasing"),
+    ],
+)
+def test_modified_frequency_map_must_increase_from_zero(omega_tilde, match):
+    with pytest.raises(ValueError, match=match):
+        ti.ModifiedTrigonometric(omega_tilde=omega_tilde)
+
+
+def test_resonant_step_sizes_refuses_huge_orders_at_once():
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match="order: 100000 .* at most"):
+        resonant_step_sizes([50.0, 70.0], (1.0, 2.0), order=10**5)
+    assert time.perf_counter() - start < 1.0
+
+
+def test_resonant_step_sizes_and_scan_measure_h_alike():
+    """Both take the largest frequency as ω_ref, so markers land on the scanned step sizes."""
+    omega = [50.0, 50.0 * np.sqrt(2)]
+    steps = resonant_step_sizes(omega, (1.0, 3.0), order=3)
+    prob = ti.OscillatoryProblem(omega, ti.PolynomialPotential([0.0], [[0, 0]]))
+    s = ti.scan(prob, "B", [0.1, 0.1], [0.0, 0.0], h_omega=[steps[0].h_omega], t_end=1.0, progress=False)
+    h = float(s.h.values[0])
+    assert h * np.dot(steps[0].k, omega) == pytest.approx(2 * np.pi * steps[0].r, rel=1e-12)
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "trigint.cli", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_cli_version_and_user_errors():
+    out = run_cli("--version")
+    assert out.returncode == 0 and out.stdout.startswith("trigint ")
+    bad = run_cli("fpu", "--out", "/dev/null/x", "--t-end", "1")
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr
+    assert bad.stderr.strip().startswith("trigint: error: --out: cannot create the folder")
+    assert "Solution(" not in bad.stdout  # refused before integrating
+    missing = run_cli("run", "/nonexistent/spec.toml", "--out", "/tmp")
+    assert missing.returncode == 2 and "Traceback" not in missing.stderr
+
+
+def test_cli_help_describes_every_option():
+    from trigint.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    for name, p in sub.choices.items():
+        for action in p._actions:
+            if action.dest != "help":
+                assert action.help, f"trigint {name}: option {action.dest} has no help"
