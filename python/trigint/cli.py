@@ -88,8 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--out", default="reproduction", help="output folder (default ./reproduction)")
     rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
     rp.add_argument("--seed", type=int, default=0,
-                    help="0: the paper's initial values; s >= 1: another realization set (y0,1(0) moved "
-                         "by a few units in the last place), to check that no claim passes by luck")
+                    help="0: the paper's initial values; s >= 1: another realization set (y0,1(0) + s*1e-10), "
+                         "to check that no claim passes by luck")
     rp.set_defaults(run=_reproduce)
 
     ru = sub.add_parser("run", help="run an experiment spec (a TOML file, e.g. a copied figure spec)")
