@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 OUT    ?= reproduction
 
-.PHONY: all install test test-rust test-python lint reproduce bench bench-deps bench-smoke clean
+.PHONY: all install test test-rust test-python lint reproduce bench bench-deps bench-smoke wheel wheel-test clean
 
 all: test
 
@@ -44,5 +44,18 @@ bench: bench-deps
 bench-smoke: bench-deps
 	$(PY) benchmarks/run.py --smoke
 
+# A wheel (abi3: one file for every CPython >= 3.11) into dist/, and its test: installed into a
+# fresh environment with no Rust toolchain involved, the shipped specs and the CLI must work.
+wheel: $(PY)
+	$(PY) -m pip install --quiet 'maturin>=1.5,<2'
+	rm -rf dist
+	$(VENV)/bin/maturin build --release --out dist
+
+wheel-test: wheel
+	rm -rf .venv-wheel
+	$(PYTHON) -m venv .venv-wheel
+	.venv-wheel/bin/python -m pip install --quiet dist/*.whl
+	cd /tmp && $(CURDIR)/.venv-wheel/bin/python $(CURDIR)/tests/installed_wheel.py
+
 clean:
-	rm -rf $(VENV) target
+	rm -rf $(VENV) .venv-wheel target dist
