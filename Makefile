@@ -55,7 +55,7 @@ wheel-test: wheel
 	rm -rf .venv-wheel
 	$(PYTHON) -m venv .venv-wheel
 	.venv-wheel/bin/python -m pip install --quiet dist/*.whl
-	cd /tmp && $(CURDIR)/.venv-wheel/bin/python $(CURDIR)/tests/installed_wheel.py
+	cd /tmp && $(CURDIR)/.venv-wheel/bin/python $(CURDIR)/.ci/installed_wheel.py
 
 clean:
 	rm -rf $(VENV) .venv-wheel target dist
