@@ -119,3 +119,66 @@ def test_cli_help_describes_every_option():
         for action in p._actions:
             if action.dest != "help":
                 assert action.help, f"trigint {name}: option {action.dest} has no help"
+
+
+CTRL_C_SCRIPT = """
+import os, signal, threading, warnings
+import numpy as np, trigint as ti
+warnings.simplefilter("ignore")
+fpu = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
+names = [f"x{i}" for i in range(6)]
+potentials = {
+    "native": fpu.potential,
+    "expression": ti.ExpressionPotential("x0**4/4 + x3**2 * x1**2", names),
+    "chain": ti.ChainPotential(6).add("y**4/4", "y", pairs=[(0, 1), (1, 2)]),
+    "python": ti.PythonPotential(lambda q: float(q @ q) ** 2, lambda q: 4 * float(q @ q) * q),
+}
+for kind, U in potentials.items():
+    prob = ti.OscillatoryProblem(fpu.omega, U)
+    for form in ("two-step", "one-step"):
+        timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+        timer.start()
+        sol = ti.integrate(prob, "B", q0, p0, h=0.04, n_steps=10**9, save_every=10**4, form=form,
+                           progress=False)
+        timer.join()
+        finite = bool(np.all(np.isfinite(sol.q)))
+        print(kind, form, sol.status, sol.n_steps, sol.t.size, int(sol.steps[-1]), finite, flush=True)
+"""
+
+
+def test_ctrl_c_keeps_the_samples_for_every_potential_kind_and_form():
+    """KeyboardInterrupt never escapes integrate(): a Python potential's callback sees it first,
+    and the run must still return its samples with status 'interrupted'."""
+    out = subprocess.run([sys.executable, "-c", CTRL_C_SCRIPT], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rows = [line.split() for line in out.stdout.splitlines()]
+    assert len(rows) == 8
+    for kind, form, status, steps, samples, last, finite in rows:
+        assert status == "interrupted", (kind, form)
+        assert int(steps) > 10 and int(last) == int(steps) and finite == "True", (kind, form)
+        assert int(samples) == int(steps) // 10**4 + 1 + (int(steps) % 10**4 != 0), (kind, form)
+
+
+def test_false_causes_are_not_reported():
+    """A huge ω is refused for what it is, not as 'a multiple of π'."""
+    with pytest.raises(ValueError, match=r"h\*omega\[3\] = 1e\+13 is too large: above 1e\+12"):
+        ti.integrate(ti.problems.fpu(omega=1e13), "B", Q0, P0, h=1.0, n_steps=10)
+    with pytest.raises(ValueError, match=r"h\*omega\[3\] = 1e\+10 is so large that .* below 1e-10") as err:
+        ti.integrate(ti.problems.fpu(omega=1e12), "B", Q0, P0, h=0.01, n_steps=10)
+    assert "multiple" not in str(err.value)
+    with pytest.raises(ValueError, match=r"is 1\*pi; .* vanishes there"):
+        ti.integrate(PROB, "B", Q0, P0, h=np.pi / 50, n_steps=10)
+    with pytest.raises(ValueError, match="omega: omega.* too large: the energies need omega"):
+        ti.problems.fpu(omega=1e300)
+    # NaN potential value at a finite initial state: the potential is named, not the state
+    U = ti.ExpressionPotential("sqrt(x - 2) + y**2", ["x", "y"])
+    with pytest.warns(RuntimeWarning, match="potential is not finite"):
+        sol = ti.integrate(ti.OscillatoryProblem([0.0, 10.0], U), "B", [1.0, 0.0], [0.0, 0.0], h=0.1, n_steps=10)
+    assert sol.status == "blow-up" and "potential is not finite at the initial state" in sol.message
+
+
+def test_ensemble_refuses_samples_that_cannot_fit_before_allocating():
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match="save_every: 100 trajectories .* GiB"):
+        ti.ensemble(PROB, "B", [Q0] * 100, [P0] * 100, h=H, n_steps=10**7, save_every=1, progress=False)
+    assert time.perf_counter() - start < 1.0

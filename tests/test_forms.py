@@ -1,4 +1,4 @@
-"""The forms of one method agree: one-step vs two-step, (trigo-mod) vs (trigo-alpha), IMEX."""
+"""The forms of one method agree: one-step vs two-step, (2.5) vs (2.6), IMEX."""
 
 import numpy as np
 import pytest

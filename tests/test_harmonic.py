@@ -15,7 +15,7 @@ LD = np.longdouble
 
 
 def closed_form(co, q0, p0, n):
-    """q_n, p_n of (trigo-mod) for g = 0, in extended precision: a rotation by hω̃ with the
+    """q_n, p_n of (2.5) for g = 0, in extended precision: a rotation by hω̃ with the
     scaling r = hχ/sin(hω̃). For trigonometric methods r = 1/ω: the exact flow of q'' + ω²q = 0.
     """
     xi = co.xi_tilde.astype(LD)

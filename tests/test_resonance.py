@@ -100,7 +100,7 @@ def test_N_agrees_with_brute_force(h, omega):
 
 
 # Lemma 5.2 holds for h ≤ h₀; h ≤ 0.01 keeps h^(1−α+μ) well below √h as its proof needs
-# (at h = 0.01995, ω = (50, 77, 181), N = 3 the bound (eq-lcbound) misses: 0.0213 < 0.0231).
+# (at h = 0.01995, ω = (50, 77, 181), N = 3 the bound (5.2) misses: 0.0213 < 0.0231).
 # Derandomized, so that CI tests the same cases every run.
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(
@@ -110,10 +110,10 @@ def test_N_agrees_with_brute_force(h, omega):
 )
 def test_lemma_5_2_properties(h, omega, N):
     mf = modified_frequencies(h, omega, N=N)
-    assume(mf.premise)  # Lemma 5.2 assumes (eq-nonres)
+    assume(mf.premise)  # Lemma 5.2 assumes (3.2)
     assert 0.125 <= mf.alpha <= 0.25 and 0 < mf.mu <= 0.125
     assert mf.verified, str(mf)
-    # (eq-lczero) on every near-resonant k, and the module holds each of them
+    # (5.1) on every near-resonant k, and the module holds each of them
     for k in mf.near_resonant:
         assert in_lattice(k, mf.module_basis)
         assert abs(np.sin(0.5 * h * np.dot(k, mf.varpi))) < 1e-9
@@ -179,7 +179,7 @@ def test_cli_json_and_table():
     assert set(d) >= {"N", "kappa", "violations", "sigma", "symplectic"}
     table = subprocess.run([sys.executable, "-m", "trigint.cli", "resonance", "--h", "0.02", "--omega", "0", "50",
                             "70.7", "--method", "A"], capture_output=True, text=True, check=True).stdout
-    assert "(num-nonres-noamal)" in table and "symplectic               no" in table
+    assert "(3.6)" in table and "symplectic               no" in table
     bad = subprocess.run([sys.executable, "-m", "trigint.cli", "resonance", "--h", "-1", "--omega", "5"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "h: the step size must be finite" in bad.stderr

@@ -39,7 +39,7 @@ def fpu_value(x: np.ndarray) -> float:
 
 
 def two_step(gradient: Callable, h: float, cos, chi, psi, phi, q0, p0, n_steps: int):
-    """(trigo-mod) with (trigo-q1); returns q_n, p_n for n = 0 … n_steps."""
+    """(2.5) with (2.3); returns q_n, p_n for n = 0 … n_steps."""
     g = lambda q: -gradient(phi * q)  # noqa: E731
     qs = [q0, cos * q0 + h * chi * p0 + 0.5 * h**2 * psi * g(q0)]
     for n in range(1, n_steps + 1):
@@ -68,7 +68,7 @@ def one_step(gradient: Callable, h: float, cos, sin, chi, psi, phi, q0, p0, n_st
 
 
 def alpha_direct(gradient: Callable, h: float, omega, alpha: float, q0, p0, n_steps: int):
-    """(trigo-alpha) as written: (I + αh²Ω²)(q_{n+1} − 2q_n + q_{n−1}) + h²Ω² q_n = h² g(q_n),
+    """(2.6) as written: (I + αh²Ω²)(q_{n+1} − 2q_n + q_{n−1}) + h²Ω² q_n = h² g(q_n),
     2h p_n = (I + αh²Ω²)(q_{n+1} − q_{n−1}); q_{−1} eliminated with p_0.
 
     Solved for the differences Δ_{n+1} = q_{n+1} − q_n (the recursion's first line reads

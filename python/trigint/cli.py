@@ -73,8 +73,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_fpu)
 
     r = sub.add_parser("resonance", help="the paper's non-resonance conditions and assumptions at a step size",
-                       description="Evaluates (eq-nonres), Assumption B, (num-nonres-noamal) and "
-                                   "(num-nonres-altpapier) for step size h and frequencies omega.")
+                       description="Evaluates, for step size h and frequencies omega, the conditions of "
+                                   "Cohen, Gauckler, Hairer, Lubich (2015): kappa = min|sin(h w_j)| >= sqrt(h) "
+                                   "(eq. 3.2), Assumption B on the filters, the numerical non-resonance "
+                                   "condition |h k.w - 2 pi r| >= sqrt(h) (eq. 3.6) and the older "
+                                   "|sin(h k.w / 2)| >= sqrt(h) (eq. 3.7), with the times they guarantee.")
     r.add_argument("--h", type=float, required=True, help="step size")
     r.add_argument("--omega", type=float, nargs="+", required=True, help="frequencies (0 = slow)")
     r.add_argument("--method", default="B", help="A–E, a filter alias, imex or stormer-verlet (default B)")

@@ -24,7 +24,7 @@ def layout(problem: OscillatoryProblem, coefficients: Coefficients | None) -> di
     """Per-coordinate weights of the quadratic forms, as the core consumes them.
 
     I_j = Σ_{i in block j} ½(p_i² + ω_i² q_i²); the modified oscillatory energy is
-    Σ_i ½(a_i p_i² + b_i q_i²) with a = σ (χ/sinc(hω̃))², b = σ ω̃² (paper (mod-energies) and
+    Σ_i ½(a_i p_i² + b_i q_i²) with a = σ (χ/sinc(hω̃))², b = σ ω̃² (paper (3.4) and
     §3.2); for trigonometric methods a = σ, b = σ ω².
     """
     omega = problem.omega

@@ -23,6 +23,7 @@ from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint
 from .energies import energy_names
+from .integrate import MAX_SAMPLE_BYTES
 from .methods import Method, resolve_method
 from .problem import OscillatoryProblem
 
@@ -92,6 +93,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
                                 or threads < 1):
         raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
     count = len(batch)
+    _check_memory(problem, batch, save_every)
     chunk = _chunk_size(chunk_size, count, client, threads)
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
@@ -193,6 +195,22 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
     target = Q if component == "q" else P
     target[:, index] += deltas
     return Q, P
+
+
+def _check_memory(problem, batch, save_every) -> None:
+    """Refuses, before anything is allocated, an ensemble whose samples would not fit: the
+    result holds every trajectory's samples (q, p, energies, step) in memory."""
+    if save_every is None:
+        return
+    width = _max_samples(batch, int(save_every))
+    need = len(batch) * width * (2 * problem.dim + problem.n_blocks + 3) * 8
+    if need > MAX_SAMPLE_BYTES:
+        raise ValueError(
+            f"save_every: {len(batch)} trajectories of up to {width} samples of {problem.dim} coordinates "
+            f"would need {need / 2**30:.3g} GiB, more than the {MAX_SAMPLE_BYTES / 2**30:.3g} GiB allowed "
+            "(a quarter of this machine's memory, at most 8 GiB); "
+            "increase save_every, or leave it None to keep only the energy statistics"
+        )
 
 
 def _chunk_size(chunk_size, count: int, client, threads) -> int:

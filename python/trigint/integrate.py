@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import warnings
 from collections.abc import Callable
@@ -22,8 +23,21 @@ PROGRESS_EVERY_NATIVE = 1 << 20
 PROGRESS_EVERY_PYTHON = 1 << 10
 #: show a progress bar by default from this many steps on
 PROGRESS_BAR_FROM = 10**7
+
+
+def _sample_memory_limit() -> int:
+    """Runs whose samples would need more than this are refused before they start: 8 GiB, or a
+    quarter of the machine's memory if that is less (growing arrays and the copy into NumPy
+    hold up to three times the samples at once)."""
+    try:
+        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        physical = 32 << 30
+    return int(min(8 << 30, physical // 4))
+
+
 #: refuse runs whose samples would need more memory than this
-MAX_SAMPLE_BYTES = 8 << 30
+MAX_SAMPLE_BYTES = _sample_memory_limit()
 
 
 def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
@@ -32,7 +46,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
               progress: bool | Callable | None = None) -> Solution:
     """Integrates q'' + Ω²q = −∇U(q) from (q0, p0) with a trigonometric or modified method.
 
-    Runs the recursion (trigo)/(trigo-mod) started by (trigo-q1), with p_n by the central
+    Runs the recursion (2.2)/(2.5) started by (2.3), with p_n by the central
     difference (paper §2.2–2.3), or its one-step form (``form="one-step"``). The state at
     step n, and every energy, is known once step n + 1 is taken.
 
@@ -90,7 +104,8 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     if n_samples * (2 * problem.dim + 4 + problem.n_blocks) * 8 > MAX_SAMPLE_BYTES:
         raise ValueError(
             f"save_every: {n_samples} samples of {problem.dim} coordinates would need more than "
-            f"{MAX_SAMPLE_BYTES >> 30} GiB; increase save_every"
+            f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
+            "increase save_every"
         )
     co = method.coefficients(h, problem.omega)
     python_potential = isinstance(problem.potential, PythonPotential)

@@ -1,5 +1,5 @@
-"""The methods: trigonometric integrators (trigo) and modified trigonometric integrators
-(trigo-mod), (trigo-alpha) of Cohen, Gauckler, Hairer, Lubich (BIT 2015), §2.2–2.3.
+"""The methods: trigonometric integrators (2.2) and modified trigonometric integrators
+(2.5), (2.6) of Cohen, Gauckler, Hairer, Lubich (BIT 2015), §2.2–2.3.
 
 Methods are data: each evaluates its filter functions once per run at the values hω_i and
 returns per-coordinate :class:`Coefficients`; one kernel in the core steps them all.
@@ -17,6 +17,9 @@ from ._filters import FILTERS, evaluate, lookup, one, sinc
 
 #: |χ(hω̃)| below this counts as zero: p_n = (q_{n+1} − q_{n−1})/(2hχ) would lose every digit.
 SINGULAR_CHI = 1e-10
+# Beyond this hω the doubles are spaced more than 1e-4 apart: sin(hω), cos(hω) and the
+# position of hω relative to the multiples of π carry no information any more.
+LARGEST_H_OMEGA = 1e12
 #: relative tolerance of the symplecticity test ψ = χφ
 SYMPLECTIC_RTOL = 1e-12
 
@@ -41,21 +44,21 @@ class Coefficients:
     chi: np.ndarray
     psi: np.ndarray
     phi: np.ndarray
-    #: σ(hω̃) = sinc(hω̃) φ/ψ (paper (sigma)); 0 on slow coordinates
+    #: σ(hω̃) = sinc(hω̃) φ/ψ (paper (3.3)); 0 on slow coordinates
     sigma: np.ndarray
-    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (mod-energies)
+    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4)
     modified_p: np.ndarray
     modified_q: np.ndarray
 
     @property
     def symplectic(self) -> bool:
-        """ψ = χ φ at every oscillatory coordinate (paper (symplectic))."""
+        """ψ = χ φ at every oscillatory coordinate (paper (2.4))."""
         fast = self.omega > 0
         return bool(np.allclose(self.psi[fast], (self.chi * self.phi)[fast], rtol=SYMPLECTIC_RTOL, atol=0))
 
 
 class Method(ABC):
-    """A method of the form (trigo-mod): its per-coordinate coefficients at (h, ω)."""
+    """A method of the form (2.5): its per-coordinate coefficients at (h, ω)."""
 
     name: str = "method"
 
@@ -82,6 +85,13 @@ class Method(ABC):
         """The coefficients at the pairs (h_i, ω_i), elementwise: one coordinate of one step
         size each. Ensembles evaluate every trajectory's step size in one call this way."""
         xi = h * omega
+        if np.any(~(xi <= LARGEST_H_OMEGA)):
+            j = int(np.flatnonzero(~(xi <= LARGEST_H_OMEGA))[0])
+            raise ValueError(
+                f"h: h*omega[{j}] = {xi[j]:.6g} is too large: above {LARGEST_H_OMEGA:g} the doubles near "
+                "h*omega are spaced more than 1e-4 apart, so sin(h*omega) and cos(h*omega), on which every "
+                "method depends, are rounding noise. Take a smaller step size or a smaller frequency."
+            )
         self._check_step(xi, omega, h_report if h_report is not None else h)
         n = omega.size
         c = {k: np.ones(n) for k in ("chi", "psi", "phi")}
@@ -118,11 +128,17 @@ class Method(ABC):
         if bad.size:
             j = int(bad[0])
             r = xi[j] / np.pi
+            if abs(np.sin(xi[j])) > 1e-6:
+                # not near a multiple of π: sinc(hω) = sin(hω)/hω is small because hω is large
+                cause = (f"h*omega[{j}] = {xi[j]:.6g} is so large that chi(h*omega_tilde) = {chi[j]:.3g} "
+                         f"(for trigonometric methods sinc(h*omega), at most 1/(h*omega)) is below {SINGULAR_CHI:g}")
+                advice = f"Take h*omega[{j}] below about {1 / SINGULAR_CHI:g}"
+            else:
+                cause = (f"h*omega[{j}] = {xi[j]:.15g} is {r:.6g}*pi; chi(h*omega_tilde) = {chi[j]:.3g} "
+                         "vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples of pi)")
+                advice = f"Choose h with h*omega[{j}] away from multiples of pi"
             raise ValueError(
-                f"h: h*omega[{j}] = {xi[j]:.15g} is {r:.6g}*pi; chi(h*omega_tilde) = {chi[j]:.3g} "
-                f"vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples "
-                f"of pi), so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. "
-                f"Choose h with h*omega[{j}] away from multiples of pi."
+                f"h: {cause}, so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. {advice}."
             )
 
     def is_symplectic(self, h: float, omega) -> bool:
@@ -130,7 +146,7 @@ class Method(ABC):
         return self.coefficients(h, omega).symplectic
 
     def sigma(self, h: float, omega) -> np.ndarray:
-        """σ(hω̃_i) = sinc(hω̃_i) φ/ψ per coordinate (paper (sigma)); 0 on slow coordinates."""
+        """σ(hω̃_i) = sinc(hω̃_i) φ/ψ per coordinate (paper (3.3)); 0 on slow coordinates."""
         return self.coefficients(h, omega).sigma
 
     def __repr__(self) -> str:
@@ -138,13 +154,13 @@ class Method(ABC):
 
 
 class Trigonometric(Method):
-    """Trigonometric integrator (trigo) with filter functions ψ, φ.
+    """Trigonometric integrator (2.2) with filter functions ψ, φ.
 
         q_{n+1} − 2cos(hΩ) q_n + q_{n−1} = h² Ψ g(Φ q_n),   2h sinc(hΩ) p_n = q_{n+1} − q_{n−1},
-        q_1 = cos(hΩ) q_0 + h sinc(hΩ) p_0 + ½h² Ψ g(Φ q_0)                         (trigo-q1)
+        q_1 = cos(hΩ) q_0 + h sinc(hΩ) p_0 + ½h² Ψ g(Φ q_0)                         (2.3)
 
     with Ψ = ψ(hΩ), Φ = φ(hΩ). Second order, symmetric (time-reversible); symplectic iff
-    ψ(hω_j) = sinc(hω_j) φ(hω_j) for all j (paper (symplectic)). Cohen, Gauckler, Hairer,
+    ψ(hω_j) = sinc(hω_j) φ(hω_j) for all j (paper (2.4)). Cohen, Gauckler, Hairer,
     Lubich, BIT 55 (2015) §2.2; Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
     §XIII.2.
 
@@ -198,13 +214,13 @@ class Trigonometric(Method):
 
 
 class ModifiedTrigonometric(Method):
-    """Modified trigonometric integrator (trigo-mod) with modified frequencies ω̃.
+    """Modified trigonometric integrator (2.5) with modified frequencies ω̃.
 
         q_{n+1} − 2cos(hΩ̃) q_n + q_{n−1} = h² Ψ̃ g(Φ̃ q_n),   2h χ̃ p_n = q_{n+1} − q_{n−1},
         q_1 = cos(hΩ̃) q_0 + h χ̃ p_0 + ½h² Ψ̃ g(Φ̃ q_0),
 
     Ψ̃ = ψ(hΩ̃), Φ̃ = φ(hΩ̃), χ̃ = χ(hΩ̃), ω̃_0 = 0. Symplectic iff ψ = χφ at every hω̃_j.
-    Paper §2.3 (trigo-mod); McLachlan–Stern's choice χ̃ = Ω⁻¹Ω̃ sinc(hΩ̃) is ``chi="mclachlan-stern"``.
+    Paper §2.3 (2.5); McLachlan–Stern's choice χ̃ = Ω⁻¹Ω̃ sinc(hΩ̃) is ``chi="mclachlan-stern"``.
 
     Parameters
     ----------
@@ -284,12 +300,12 @@ class ModifiedTrigonometric(Method):
 
 
 class AlphaMethod(ModifiedTrigonometric):
-    """The symplectic α-family (trigo-alpha):
+    """The symplectic α-family (2.6):
 
         q_{n+1} − 2q_n + q_{n−1} + h²Ω² q_n + α h²Ω² (q_{n+1} − 2q_n + q_{n−1}) = h² g(q_n),
         2h p_n = (I + α h²Ω²)(q_{n+1} − q_{n−1}).
 
-    It is (trigo-mod) with sin(½hω̃) = ½hω/√(1 + αh²ω²), hω̃ ∈ [0, π], φ = 1 and
+    It is (2.5) with sin(½hω̃) = ½hω/√(1 + αh²ω²), hω̃ ∈ [0, π], φ = 1 and
     ψ = χ = 1 − 4α sin²(½hω̃) = 1/(1 + αh²ω²). Second order, symmetric, symplectic.
     For α < ¼ it needs hω < 2/√(1 − 4α). α = 0 is Störmer–Verlet, α = ¼ the IMEX method
     of Zhang–Skeel and Stern–Grinspun. Paper §2.3 and Theorem 3.2.
@@ -338,7 +354,7 @@ class AlphaMethod(ModifiedTrigonometric):
         d = 1.0 + self.alpha * xi**2
         half = 0.5 * xi / np.sqrt(d)  # sin(½hω̃)
         cos_half = np.sqrt(np.maximum(0.0, 1.0 - half**2))
-        # 1 − cos(hω̃) = ½h²ω²/(1 + αh²ω²), from (trigo-alpha) directly.
+        # 1 − cos(hω̃) = ½h²ω²/(1 + αh²ω²), from (2.6) directly.
         return dict(xi_tilde=2.0 * np.arcsin(half), one_minus_cos=0.5 * xi**2 / d,
                     sin=2.0 * half * cos_half, chi=1.0 / d, psi=1.0 / d, phi=np.ones_like(xi))
 

@@ -40,6 +40,10 @@ class OscillatoryProblem:
         if not np.all(np.isfinite(omega)):
             bad = int(np.flatnonzero(~np.isfinite(omega))[0])
             raise ValueError(f"omega: frequencies must be finite; omega[{bad}] = {omega[bad]}")
+        if np.any(omega > 1e150):
+            bad = int(np.flatnonzero(omega > 1e150)[0])
+            raise ValueError(f"omega: omega[{bad}] = {omega[bad]:g} is too large: the energies need omega**2, "
+                             "which must stay finite; frequencies up to 1e150 are allowed")
         if np.any(omega < 0):
             bad = int(np.flatnonzero(omega < 0)[0])
             raise ValueError(f"omega: frequencies must be >= 0; omega[{bad}] = {omega[bad]}")

@@ -1,11 +1,11 @@
 //! The per-coordinate numbers of a method, and the products the kernels read.
 //!
-//! Every method of the paper is the recursion (trigo-mod),
+//! Every method of the paper is the recursion (2.5),
 //!
 //!   q_{n+1} − 2 cos(hω̃) q_n + q_{n−1} = h² ψ g(φ q_n),   2h χ p_n = q_{n+1} − q_{n−1},
 //!
 //! with per-coordinate numbers c = cos(hω̃), χ, ψ, φ (ω̃ = ω and χ = sinc(hω) for the
-//! trigonometric methods (trigo)). The Python layer evaluates the filter functions and hands
+//! trigonometric methods (2.2)). The Python layer evaluates the filter functions and hands
 //! these arrays over, one [`MethodCoefficients`] per trajectory; here they are checked and turned
 //! into the products the kernels use ([`Coef`]), one number per lane, so that a method is data
 //! and the loop is one.
@@ -33,9 +33,9 @@ pub struct MethodCoefficients {
     pub phi: Vec<f64>,
     /// ψ/χ, with its limit where χ = 0 (one-step form).
     pub psi_over_chi: Vec<f64>,
-    /// sin²(hω̃_i)/(hχ), with its limit where χ = 0 (one-step form; ω sin(hω) for (trigo)).
+    /// sin²(hω̃_i)/(hχ), with its limit where χ = 0 (one-step form; ω sin(hω) for (2.2)).
     pub sin2_over_h_chi: Vec<f64>,
-    /// Weights of ½p_i² and ½q_i² in the modified oscillatory energy (mod-energies).
+    /// Weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4).
     pub modified_p: Vec<f64>,
     pub modified_q: Vec<f64>,
 }

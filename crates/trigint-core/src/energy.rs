@@ -1,7 +1,7 @@
 //! The energies: their forms per coordinate (written once, summed by every kernel), the channel
 //! table, the running extremes that give max |E(t_n) − E(0)|, and the saved samples.
 //!
-//! Channels, in this order (paper §2.1 and (mod-energies)): `total` (H), `oscillatory`
+//! Channels, in this order (paper §2.1 and (3.4)): `total` (H), `oscillatory`
 //! (H_ω = Σ_{j≥1} I_j), `slow` (½|p₀|² + U), `modified_oscillatory` (H*_ω or H*_ω̃), then the
 //! per-block oscillatory energies I_1 … I_ℓ. [`channel_names`] is the one list both the core and
 //! the Python layer read.
@@ -137,7 +137,7 @@ pub fn oscillator<L: Real>(p: L, q: L, omega2: L) -> L {
     p * p + omega2 * (q * q)
 }
 
-/// a p² + b q²: twice a coordinate's share of the modified energy (mod-energies).
+/// a p² + b q²: twice a coordinate's share of the modified energy (3.4).
 #[inline(always)]
 pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
     a * (p * p) + b * (q * q)

@@ -6,7 +6,7 @@ use crate::energy::Samples;
 /// Which form of the recursion to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Form {
-    /// (trigo)/(trigo-mod): the two-step recursion with central-difference momenta.
+    /// (2.2)/(2.5): the two-step recursion with central-difference momenta.
     TwoStep,
     /// The one-step (velocity) form.
     OneStep,

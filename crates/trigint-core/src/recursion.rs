@@ -1,4 +1,4 @@
-//! The step: the recursion (trigo-mod) in its two forms, its start (trigo-q1), and the energy
+//! The step: the recursion (2.5) in its two forms, its start (2.3), and the energy
 //! sums of the state it passes through. Written once over [`Real`], so one trajectory (`f64`)
 //! and a bundle of lanes (`Lanes<W>`) run the same operations in the same order.
 //!
@@ -7,7 +7,7 @@
 //!   d_{n+1} = d_n − 2(1 − c) q_n + h²ψ g(φq_n),   q_{n+1} = q_n + d_{n+1},
 //!   p_n = (d_{n+1} + d_n) / (2hχ),
 //!
-//! started by (trigo-q1): d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g(φq_0). With 1 − c = 2 sin²(½hω̃)
+//! started by (2.3): d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g(φq_0). With 1 − c = 2 sin²(½hω̃)
 //! known to full precision this keeps the phase exact to rounding for small hω̃. On the slow
 //! coordinates (c = χ = ψ = φ = 1) it is Störmer–Verlet: d_{n+1} = d_n + h² g_n.
 //!
@@ -371,7 +371,7 @@ pub fn finish_state_step<L: Real, Sh: Shape>(sh: &Sh, st: &mut State<L, Sh>) {
     }
 }
 
-/// (trigo-q1) in summed form: d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g_0, q_1 = q_0 + d_1, with
+/// (2.3) in summed form: d_1 = −(1 − c) q_0 + hχ p_0 + ½h²ψ g_0, q_1 = q_0 + d_1, with
 /// p_0 in `st.p` and g_0 in `st.f`.
 #[inline(always)]
 pub fn two_step_start<L: Real, Sh: Shape>(sh: &Sh, k: &Coef<L, Sh::S<L>>, st: &mut State<L, Sh>) {

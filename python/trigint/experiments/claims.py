@@ -167,7 +167,7 @@ def scan_statistic(ds: xr.Dataset) -> np.ndarray:
 
 
 def _scan(ds: xr.Dataset) -> list[Claim]:
-    """Fig. 3. Each panel is centred at a resonance hω = 2πr/k. Where (num-nonres-noamal) holds
+    """Fig. 3. Each panel is centred at a resonance hω = 2πr/k. Where (3.6) holds
     only for N = 1 (k = 3), the deviation must grow on t ≤ 10⁵: peaks inside the near-resonance
     band |k hω − 2πr| < √h, far above the rest; where N ≥ 2 the panel stays at the level of the
     O(ε) oscillation of Theorem 3.1, without peaks."""

@@ -235,7 +235,7 @@ def run_scan(fig: dict) -> xr.Dataset:
     method, energy, t_end = fig.get("method", "B"), fig.get("energy", "oscillatory"), float(fig["t_end"])
     s = scan(prob, method, q0, p0, h_omega=grid.ravel(), omega_ref=omega, t_end=t_end, energy=energy)
     order = int(fig.get("resonance_order", 12))
-    # What the theory says at each centre: N of (num-nonres-noamal), and the central resonance.
+    # What the theory says at each centre: N of (3.6), and the central resonance.
     from ..resonance import analyze
 
     centre_n = [analyze(c / omega, [omega], N_max=10).N for c in centres]

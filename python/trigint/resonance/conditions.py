@@ -50,7 +50,7 @@ def _check_n_max(N_max) -> int:
 
 
 def nonresonance_violations(h: float, omega: np.ndarray, radius: int) -> list[Violation]:
-    """Every (k, r), ‖k‖₁ ≤ radius, r ≠ 0, with |h k·ω − 2πr| < √h (num-nonres-noamal).
+    """Every (k, r), ‖k‖₁ ≤ radius, r ≠ 0, with |h k·ω − 2πr| < √h (3.6).
 
     One of each pair ±(k, r) is listed (first non-zero entry of k positive); sorted by ‖k‖₁,
     then distance.
@@ -145,16 +145,16 @@ class ResonanceReport:
         lines += [
             f"  h/eps                    {self.h_over_epsilon:.6g}",
             f"  kappa = min|sin(h w_j)|  {self.kappa:.6g}   {'>=' if self.kappa_ok else '<'} sqrt(h) = "
-            f"{np.sqrt(self.h):.6g}  (eq-nonres) {'holds' if self.kappa_ok else 'FAILS'}",
+            f"{np.sqrt(self.h):.6g}  non-resonance (3.2) {'holds' if self.kappa_ok else 'FAILS'}",
             f"  sigma(h w_j)             {_fmt(self.sigma)}",
             f"  Assumption B             {'holds' if self.assumption_B else 'FAILS'} "
             f"(c1 = {self.c1:.6g}, C1 = {self.C1:.6g})",
             f"  symplectic               {'yes' if self.symplectic else 'no'}",
-            f"  (num-nonres-noamal)      holds up to N = {self.N}"
+            f"  numerical non-resonance |h k.w - 2 pi r| >= sqrt(h), eq. (3.6): holds up to N = {self.N}"
             + (" (N_max)" if self.N == self.N_max else ""),
         ]
         lines += _violation_table(self.violations, "|h k.w - 2 pi r|", self.N)
-        lines.append(f"  (num-nonres-altpapier)   holds up to N = {self.N_old}"
+        lines.append(f"  older condition |sin(h k.w / 2)| >= sqrt(h), eq. (3.7): holds up to N = {self.N_old}"
                      + (" (N_max)" if self.N_old == self.N_max else ""))
         lines.append(f"  resonance module basis   {self.module_basis or 'none (no exact relation k.w = 0)'}")
         lines += _violation_table(self.violations_old, "|sin(h k.w / 2)|", self.N_old)
@@ -189,12 +189,12 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
 
     For the distinct non-zero frequencies ω_j of `omega` (for a modified method: the ω̃_j):
 
-    - κ = min_j |sin(hω_j)| and whether κ ≥ √h (eq-nonres); h/ε with ε = 1/min ω_j;
+    - κ = min_j |sin(hω_j)| and whether κ ≥ √h (3.2); h/ε with ε = 1/min ω_j;
     - σ(hω_j) = sinc·φ/ψ, Assumption B (one sign, c₁ ≤ |σ| ≤ C₁) and symplecticity;
     - N, the largest N ≤ N_max with |h k·ω − 2πr| ≥ √h for all r ≠ 0, ‖k‖₁ ≤ N + 1
-      (num-nonres-noamal), and the violations that stop N + 1, nearest first (N = −1 when
+      (3.6), and the violations that stop N + 1, nearest first (N = −1 when
       already some hω_j is within √h of a non-zero multiple of 2π);
-    - the same for the older condition |sin(½h k·ω)| ≥ √h for k ∉ 𝓜 (num-nonres-altpapier),
+    - the same for the older condition |sin(½h k·ω)| ≥ √h for k ∉ 𝓜 (3.7),
       with an integer basis of the resonance module 𝓜 = {k : k·ω = 0} (relations counted as exact
       within the relative tolerance `tol`);
     - the time scale h^(−N) and the error sizes h^(1−δ) (H_slow) and h^(1−δ)/κ (H*_ω) of
@@ -239,7 +239,7 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
         one_sign = bool(np.all(sigma > 0) or np.all(sigma < 0))
     c1, C1 = float(np.min(np.abs(sigma))), float(np.max(np.abs(sigma)))
     radius = N_max + 1
-    # (num-nonres-noamal): N is two below the smallest norm of a violating k.
+    # (3.6): N is two below the smallest norm of a violating k.
     all_new = nonresonance_violations(h, effective, radius + 1)
     first = _first_violating_norm(all_new)
     N = N_max if first is None or first > radius else first - 2
@@ -247,7 +247,7 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
     if first is not None and first <= 1:
         notes.append("a single frequency is itself resonant (h*omega_j near 2 pi r): even N = 0 fails, "
                      "reported as N = -1")
-    # (num-nonres-altpapier) with the resonance module of exact relations.
+    # (3.7) with the resonance module of exact relations.
     basis = resonance_module(effective, radius + 1, tol)
     old = _old_violations(h, effective, radius + 1, tol)
     first_old = _first_violating_norm(old)
