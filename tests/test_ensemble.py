@@ -220,3 +220,63 @@ def test_step_sizes_evaluated_together_equal_one_at_a_time(method):
         rows = _native.method_rows(m.coefficients(h[t], omega), omega > 0)
         for k in _native.METHOD_ROWS:
             assert np.array_equal(rows[k], getattr(batch, k)[t]), (k, t)
+
+
+FAULT_SCRIPT = textwrap.dedent("""
+    import os, signal, sys, numpy as np, trigint as ti
+    store, out, chunk, threads, fault = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+    if fault != "none":  # die by SIGKILL at a chosen point of the store's creation
+        import zarr
+        from trigint import _store
+        what, count = fault.split(":")
+        calls = [0]
+        def dying(original):
+            def wrapper(*args, **kwargs):
+                calls[0] += 1
+                if calls[0] > int(count):
+                    os.kill(os.getpid(), signal.SIGKILL)
+                return original(*args, **kwargs)
+            return wrapper
+        if what == "array":
+            zarr.Group.create_array = dying(zarr.Group.create_array)
+        else:
+            _store.os.rename = dying(_store.os.rename)
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    hs = 2 * np.pi / 3 / 50 * np.linspace(0.9, 1.1, 24)
+    print("go", flush=True)
+    ds = ti.ensemble(prob, "B", q0, p0, h=hs, t_end=300.0, chunk_size=chunk, threads=threads,
+                     store=store, save_every=500, progress=False)
+    np.save(out, np.concatenate([ds.max_deviation.values.ravel(), np.nan_to_num(ds.q.values.ravel(), nan=-7.0)]))
+""")
+
+
+def test_sigkill_at_any_moment_then_rerun_equals_a_fresh_run(tmp_path):
+    """Killed while creating the store (after each array, just before it is renamed into
+    place), in its first milliseconds, or later; then resumed with another chunk size and
+    thread count: the result equals a fresh run, bit for bit."""
+    script = tmp_path / "fault.py"
+    script.write_text(FAULT_SCRIPT)
+
+    def run(store, out, chunk, threads, fault="none"):
+        return subprocess.run([sys.executable, str(script), str(store), str(out), str(chunk), str(threads), fault],
+                              capture_output=True, text=True, timeout=120)
+
+    assert run(tmp_path / "fresh.zarr", tmp_path / "fresh.npy", 3, 1).returncode == 0
+    fresh = np.load(tmp_path / "fresh.npy")
+    cases = [("array:0", None), ("array:3", None), ("rename:0", None), ("none", 0.0), ("none", 0.003),
+             ("none", 0.03), ("none", 0.3)]
+    for i, (fault, delay) in enumerate(cases):
+        store = tmp_path / f"s{i}.zarr"
+        if delay is None:
+            assert run(store, tmp_path / "x.npy", 3, 1, fault).returncode == -signal.SIGKILL
+        else:
+            proc = subprocess.Popen([sys.executable, str(script), str(store), str(tmp_path / "x.npy"), "3", "1",
+                                     "none"], stdout=subprocess.PIPE, text=True)
+            assert proc.stdout.readline().strip() == "go"
+            time.sleep(delay)
+            proc.kill()
+            proc.wait()
+        again = run(store, tmp_path / f"r{i}.npy", 5 + i, 2)
+        assert again.returncode == 0, (fault, delay, again.stderr[-1500:])
+        assert np.array_equal(np.load(tmp_path / f"r{i}.npy"), fresh), (fault, delay)

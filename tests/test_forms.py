@@ -64,3 +64,44 @@ def test_symplectic_trigonometric_modified_energy_is_oscillatory(fpu):
     sigma = ti.Trigonometric("A").sigma(0.04, prob.omega)[-1]
     assert sigma != pytest.approx(1.0, abs=1e-3)
     assert np.allclose(sol.energies["modified_oscillatory"], sigma * sol.energies["oscillatory"], rtol=1e-13)
+
+
+@pytest.mark.parametrize("name", ["B", "C", "E"])
+@pytest.mark.parametrize("k", [1, 2])
+def test_one_step_form_is_defined_at_multiples_of_pi(name, k):
+    """At hω = kπ, χ = sinc vanishes: the two-step form's momentum is undefined, but the one-step
+    form of B, C and E needs only ψ/χ (φ, sinc, sinc) and sin²/(hχ) = ω sin(hω). Its trajectory
+    there is the limit of those at hω = kπ(1 ± δ): the midpoint of the two neighbours, to second
+    order in δ, while the neighbours themselves differ to first order."""
+    import warnings
+
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    h = k * np.pi / 50
+    with pytest.raises(ValueError, match="or use form='one-step'"):
+        ti.integrate(prob, name, q0, p0, h=h, n_steps=10)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        at, up, down = (ti.integrate(prob, name, q0, p0, h=h * (1 + d), n_steps=200, form="one-step", save_every=1)
+                        for d in (0.0, 1e-7, -1e-7))
+    assert at.status == "completed"
+    spread = np.abs(up.p - down.p).max()
+    assert spread > 1e-5
+    assert np.abs(at.q - (up.q + down.q) / 2).max() < 1e-3 * spread
+    assert np.abs(at.p - (up.p + down.p) / 2).max() < 1e-3 * spread
+    modified = at.energies["modified_oscillatory"].values
+    if name == "E":  # σ = 1/sinc has no limit: H*_ω is undefined and reported as NaN
+        assert np.all(np.isnan(modified))
+        with pytest.warns(RuntimeWarning, match="modified oscillatory energy is undefined"):
+            ti.integrate(prob, name, q0, p0, h=h, n_steps=10, form="one-step")
+    else:  # σ = 1: H*_ω = H_ω
+        np.testing.assert_array_equal(modified, at.energies["oscillatory"].values)
+
+
+@pytest.mark.parametrize("name", ["A", "D"])
+def test_one_step_form_refuses_what_is_undefined(name):
+    """A and D have ψ = sinc²(ξ/2), which does not vanish at odd multiples of π: ψ/χ is undefined."""
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    with pytest.raises(ValueError, match=f"one-step form of method '{name}' needs psi/chi there, which is undefined"):
+        ti.integrate(prob, name, q0, p0, h=np.pi / 50, n_steps=10, form="one-step")

@@ -22,27 +22,51 @@ def one(x) -> np.ndarray:
     return np.ones_like(np.asarray(x, dtype=float))
 
 
+def _half_tan_ratio(x) -> np.ndarray:
+    """sinc²(ξ/2)/sinc(ξ) = 2 tan(ξ/2)/ξ, without the division by sinc: finite at the even
+    multiples of π, undefined (NaN) at the odd ones, where sinc vanishes and sinc²(ξ/2) does not."""
+    x = np.asarray(x, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(np.abs(np.cos(x / 2)) > 1e-6, 2 * np.tan(x / 2) / np.where(x == 0, 1.0, x), np.nan)
+    return np.where(x == 0, 1.0, out)
+
+
+def _nan(x) -> np.ndarray:
+    return np.full_like(np.asarray(x, dtype=float), np.nan)
+
+
 @dataclass(frozen=True)
 class Filter:
-    """A named filter pair (ψ, φ) with its source."""
+    """A named filter pair (ψ, φ) with its source.
+
+    ``psi_over_sinc`` and ``sigma`` are ψ/sinc and σ = sinc·φ/ψ in closed forms that do not divide
+    by sinc: at hω = kπ, where sinc vanishes, they give the one-step form's numbers and the
+    modified energy's weight (NaN where the quantity is undefined).
+    """
 
     key: str
     psi: Callable
     phi: Callable
     reference: str
     formula: str
+    psi_over_sinc: Callable = _nan
+    sigma: Callable = _nan
 
 
 FILTERS: dict[str, Filter] = {
     "A": Filter("A", lambda x: sinc(np.asarray(x) / 2) ** 2, one, "Gautschi 1961",
-                "psi = sinc^2(xi/2), phi = 1"),
-    "B": Filter("B", sinc, one, "Deuflhard 1979", "psi = sinc(xi), phi = 1"),
+                "psi = sinc^2(xi/2), phi = 1", psi_over_sinc=_half_tan_ratio),
+    "B": Filter("B", sinc, one, "Deuflhard 1979", "psi = sinc(xi), phi = 1",
+                psi_over_sinc=one, sigma=one),
     "C": Filter("C", lambda x: sinc(x) ** 2, sinc, "Garcia-Archilla, Sanz-Serna, Skeel 1999",
-                "psi = sinc^2(xi), phi = sinc(xi)"),
+                "psi = sinc^2(xi), phi = sinc(xi)", psi_over_sinc=sinc, sigma=one),
     "D": Filter("D", lambda x: sinc(np.asarray(x) / 2) ** 2,
                 lambda x: sinc(x) * (1 + np.sin(np.asarray(x) / 2) ** 2 / 3),
-                "Hochbruck-Lubich 1999", "psi = sinc^2(xi/2), phi = sinc(xi) (1 + sin^2(xi/2)/3)"),
-    "E": Filter("E", lambda x: sinc(x) ** 2, one, "Hairer-Lubich 2000", "psi = sinc^2(xi), phi = 1"),
+                "Hochbruck-Lubich 1999", "psi = sinc^2(xi/2), phi = sinc(xi) (1 + sin^2(xi/2)/3)",
+                psi_over_sinc=_half_tan_ratio,
+                sigma=lambda x: np.cos(np.asarray(x) / 2) ** 2 * (1 + np.sin(np.asarray(x) / 2) ** 2 / 3)),
+    "E": Filter("E", lambda x: sinc(x) ** 2, one, "Hairer-Lubich 2000", "psi = sinc^2(xi), phi = 1",
+                psi_over_sinc=sinc),
 }
 
 ALIASES = {

@@ -58,21 +58,14 @@ def core_layout(problem) -> CoreLayout:
 def method_rows(co, fast: np.ndarray) -> dict:
     """The per-coordinate numbers of one method (user order) as the core takes them.
 
-    ψ/χ and sin²(hω̃)/(hχ) are the one-step form's numbers; where χ = 0 they take the method's
-    limits (see :meth:`Method._one_step_limits`)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        psi_over_chi = np.where(fast, co.psi / co.chi, 1.0)
-        sin2 = np.where(fast, co.sin**2 / (co.h * co.chi), 0.0)
-    limits = getattr(co, "one_step_limits", None)
-    if limits is not None:
-        at = ~np.isfinite(psi_over_chi) | ~np.isfinite(sin2)
-        psi_over_chi = np.where(at, limits[0], psi_over_chi)
-        sin2 = np.where(at, limits[1], sin2)
+    ψ/χ and sin²(hω̃)/(hχ) are the one-step form's numbers (with their limits where χ = 0)."""
+    psi_over_chi, sin2 = co.psi_over_chi, co.sin2_over_h_chi
     rows = {
         "one_minus_cos": co.one_minus_cos, "chi": co.chi, "psi": co.psi, "phi": co.phi,
         "psi_over_chi": psi_over_chi, "sin2_over_h_chi": sin2,
-        "modified_p": np.where(fast, co.modified_p, 0.0),
-        "modified_q": np.where(fast, co.modified_q, 0.0),
+        # NaN where σ is undefined: the core sums 0 there and the caller reports NaN
+        "modified_p": np.where(fast & np.isfinite(co.modified_p), co.modified_p, 0.0),
+        "modified_q": np.where(fast & np.isfinite(co.modified_q), co.modified_q, 0.0),
     }
     return {k: np.asarray(v, dtype=float) for k, v in rows.items()}
 

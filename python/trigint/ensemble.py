@@ -21,7 +21,7 @@ import xarray as xr
 
 from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
-from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint
+from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
 from .integrate import MAX_SAMPLE_BYTES
 from .methods import Method, resolve_method
@@ -57,8 +57,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         Trajectories per chunk (the unit of progress, of distribution and of ``store``).
     store : str or path, optional
         A zarr directory: each finished chunk is written as it completes; the same call with the
-        same store skips the finished chunks and returns the identical result. A store written by
-        a different call is refused.
+        same store skips the finished chunks and returns the identical result, whatever its thread
+        count, chunk size or client (the store keeps the chunking it was made with). A process
+        killed at any moment, even while creating the store, loses at most the unfinished chunks.
+        A store written by a different call is refused.
     progress : bool, optional
         A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
 
@@ -95,6 +97,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     count = len(batch)
     _check_memory(problem, batch, save_every)
     chunk = _chunk_size(chunk_size, count, client, threads)
+    if store is not None:  # a store keeps the chunking it was made with (results do not depend on it)
+        chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
     args = core_arguments(problem)
@@ -293,7 +297,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
         "method": repr(method), "coefficients": np.stack([getattr(batch, k) for k in METHOD_ROWS]),
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
-        "track_energies": bool(track), "chunk_size": chunk,
+        "track_energies": bool(track),
     })
     return SweepStore(store, prints, shapes, chunk, len(spans))
 

@@ -107,7 +107,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
             f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
             "increase save_every"
         )
-    co = method.coefficients(h, problem.omega)
+    co = method.coefficients(h, problem.omega, form=form)
     python_potential = isinstance(problem.potential, PythonPotential)
     every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
     callback, close = _progress(progress, n_steps, python_potential)
@@ -118,12 +118,21 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         close()
     if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
         raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
-    return _solution(problem, method, h, n_steps, out)
+    return _solution(problem, method, h, n_steps, out, co)
 
 
-def _solution(problem, method, h, n_steps, out) -> Solution:
+def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
     names = energy_names(problem.n_blocks)
     samples = out["samples"]
+    if co is not None and not np.all(np.isfinite(co.modified_p)):
+        # one-step form at hω = kπ with a filter whose σ has no limit there (E, A)
+        k = names.index("modified_oscillatory")
+        samples["energies"][:, k] = np.nan
+        out["max_deviation"][k] = out["initial_energies"][k] = np.nan
+        j = int(np.flatnonzero(~np.isfinite(co.modified_p))[0])
+        warnings.warn(f"the modified oscillatory energy is undefined at h*omega[{j}] = {co.xi[j]:.12g} for "
+                      f"method {method.name!r} (sigma = sinc*phi/psi has no finite limit there); it is NaN",
+                      RuntimeWarning, stacklevel=3)
     steps = samples["steps"].astype(np.int64)
     t = steps * h
     energies = xr.Dataset(

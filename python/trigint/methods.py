@@ -46,9 +46,13 @@ class Coefficients:
     phi: np.ndarray
     #: σ(hω̃) = sinc(hω̃) φ/ψ (paper (3.3)); 0 on slow coordinates
     sigma: np.ndarray
-    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4)
+    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4); NaN where σ is
+    #: undefined (one-step form at hω = kπ for some filters)
     modified_p: np.ndarray
     modified_q: np.ndarray
+    #: the one-step form's numbers ψ/χ and sin²(hω̃)/(hχ), with their limits where χ = 0
+    psi_over_chi: np.ndarray
+    sin2_over_h_chi: np.ndarray
 
     @property
     def symplectic(self) -> bool:
@@ -69,19 +73,27 @@ class Method(ABC):
     def _check_step(self, xi: np.ndarray, omega: np.ndarray, h: float) -> None:  # noqa: B027
         """Method-specific step-size restrictions (raises ValueError); none by default."""
 
-    def coefficients(self, h: float, omega) -> Coefficients:
+    def _at_chi_zero(self, xi_tilde: np.ndarray) -> dict | None:
+        """Where χ(hω̃) = 0: ψ/χ, sin²(hω̃)/(hχ)·h and σ in forms without the division by χ
+        (NaN where undefined), or None if the method does not know them."""
+        return None
+
+    def coefficients(self, h: float, omega, form: str = "two-step") -> Coefficients:
         """The per-coordinate coefficients at step size h for frequencies omega.
 
-        Raises ValueError where the method is undefined: χ(hω̃_j) = 0 (for the trigonometric
-        methods hω_j a non-zero multiple of π), or a step-size restriction.
+        Raises ValueError where the method is undefined: in the two-step form wherever
+        χ(hω̃_j) = 0 (for the trigonometric methods hω_j a non-zero multiple of π: the momentum
+        divides by χ); in the one-step form only where ψ/χ has no finite limit there (for
+        methods B and C it is φ, for E sinc; A and D need an even multiple of π); or a
+        step-size restriction.
         """
         h = _check_h(h)
         omega = np.asarray(omega, dtype=float).reshape(-1)
         if omega.size == 0 or not np.all(np.isfinite(omega)) or np.any(omega < 0):
             raise ValueError("omega: need n >= 1 finite frequencies >= 0")
-        return self._pointwise(np.full(omega.size, h), omega, h)
+        return self._pointwise(np.full(omega.size, h), omega, h, form=form)
 
-    def _pointwise(self, h: np.ndarray, omega: np.ndarray, h_report=None) -> Coefficients:
+    def _pointwise(self, h: np.ndarray, omega: np.ndarray, h_report=None, form: str = "two-step") -> Coefficients:
         """The coefficients at the pairs (h_i, ω_i), elementwise: one coordinate of one step
         size each. Ensembles evaluate every trajectory's step size in one call this way."""
         xi = h * omega
@@ -103,13 +115,39 @@ class Method(ABC):
             values = self._filters(distinct, h_report if h_report is not None else h)
             for key in ("xi_tilde", "one_minus_cos", "sin", "chi", "psi", "phi"):
                 c[key][fast] = np.asarray(values[key], dtype=float)[inverse]
-        self._check_chi(c["chi"], xi, omega)
+        singular = fast & (np.abs(c["chi"]) <= SINGULAR_CHI)
+        at_zero = None
+        if np.any(singular):
+            if form != "one-step" or np.any(np.abs(c["sin"][singular]) > 1e-6):
+                self._check_chi(c["chi"], xi, omega, form)
+            at_zero = self._at_chi_zero(c["xi_tilde"][singular])
+            ratio = None if at_zero is None else at_zero["psi_over_chi"]
+            if ratio is None or not np.all(np.isfinite(ratio)):
+                where = np.flatnonzero(singular)
+                j = int(where[0] if ratio is None else where[~np.isfinite(ratio)][0])
+                raise ValueError(
+                    f"h: h*omega[{j}] = {xi[j]:.15g} is {xi[j] / np.pi:.6g}*pi, where chi(h*omega_tilde) vanishes; "
+                    f"the one-step form of method {self.name!r} needs psi/chi there, which is undefined "
+                    f"(psi = {c['psi'][j]:.3g} does not vanish with chi){'' if ratio is not None else ' or unknown'}. "
+                    f"Choose h with h*omega[{j}] away from multiples of pi."
+                )
         sinc_t = sinc(c["xi_tilde"])
         with np.errstate(divide="ignore", invalid="ignore"):
             sigma = np.where(fast, sinc_t * c["phi"] / c["psi"], 0.0)
             chi_over_sinc = np.where(fast, c["chi"] / sinc_t, 0.0)
-        if not np.all(np.isfinite(sigma)) or not np.all(np.isfinite(chi_over_sinc)):
-            j = int(np.flatnonzero(~(np.isfinite(sigma) & np.isfinite(chi_over_sinc)))[0])
+            psi_over_chi = np.where(fast, c["psi"] / c["chi"], 1.0)
+            sin2_over_h_chi = np.where(fast, c["sin"] ** 2 / (h * c["chi"]), 0.0)
+        undefined_sigma = np.zeros(n, dtype=bool)
+        if at_zero is not None:
+            # one-step form at hω̃ = kπ: the limits (for the trigonometric methods χ = sinc)
+            psi_over_chi[singular] = at_zero["psi_over_chi"]
+            sin2_over_h_chi[singular] = at_zero["h_sin2_over_h_chi"] / h[singular]
+            sigma[singular] = at_zero["sigma"]
+            chi_over_sinc[singular] = 1.0
+            undefined_sigma[singular] = ~np.isfinite(at_zero["sigma"])
+        defined = ~undefined_sigma
+        if not np.all(np.isfinite(sigma[defined])) or not np.all(np.isfinite(chi_over_sinc)):
+            j = int(np.flatnonzero(~(np.isfinite(sigma) | undefined_sigma) | ~np.isfinite(chi_over_sinc))[0])
             raise ValueError(
                 f"h: at coordinate {j} (h*omega = {xi[j]:.12g}) psi or sinc(h*omega_tilde) vanishes, "
                 "so sigma and the modified oscillatory energy are undefined; choose another h"
@@ -120,10 +158,10 @@ class Method(ABC):
         return Coefficients(
             h=h_report if h_report is not None else h, omega=omega, xi=xi, sigma=sigma,
             cos=1.0 - c["one_minus_cos"], modified_p=sigma * chi_over_sinc**2,
-            modified_q=sigma * omega_tilde**2, **c,
+            modified_q=sigma * omega_tilde**2, psi_over_chi=psi_over_chi, sin2_over_h_chi=sin2_over_h_chi, **c,
         )
 
-    def _check_chi(self, chi: np.ndarray, xi: np.ndarray, omega: np.ndarray) -> None:
+    def _check_chi(self, chi: np.ndarray, xi: np.ndarray, omega: np.ndarray, form: str = "two-step") -> None:
         bad = np.flatnonzero(np.abs(chi) <= SINGULAR_CHI)
         if bad.size:
             j = int(bad[0])
@@ -137,6 +175,8 @@ class Method(ABC):
                 cause = (f"h*omega[{j}] = {xi[j]:.15g} is {r:.6g}*pi; chi(h*omega_tilde) = {chi[j]:.3g} "
                          "vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples of pi)")
                 advice = f"Choose h with h*omega[{j}] away from multiples of pi"
+                if form != "one-step" and self._at_chi_zero(np.array([xi[j]])) is not None:
+                    advice += " (or use form='one-step', which needs no division by chi)"
             raise ValueError(
                 f"h: {cause}, so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. {advice}."
             )
@@ -191,6 +231,7 @@ class Trigonometric(Method):
             raise ValueError("filter: give a filter name or psi/phi callables, not both")
         if filter is not None:
             f = lookup(filter)
+            self._filter = f
             self.psi, self.phi = f.psi, f.phi
             self.name = name or f.key
             self.reference = f.reference
@@ -201,6 +242,7 @@ class Trigonometric(Method):
                 if fn is not None and not callable(fn):
                     raise TypeError(f"{arg}: expected a callable of xi = h*omega, got {type(fn).__name__}")
             self.psi, self.phi = psi or one, phi or one
+            self._filter = None
             for arg, fn in (("psi", self.psi), ("phi", self.phi)):
                 at0 = float(evaluate(fn, np.zeros(1), arg)[0])
                 if abs(at0 - 1.0) > 1e-12:
@@ -211,6 +253,15 @@ class Trigonometric(Method):
     def _filters(self, xi: np.ndarray, h: float) -> dict:
         return dict(xi_tilde=xi, one_minus_cos=2 * np.sin(xi / 2) ** 2, sin=np.sin(xi), chi=sinc(xi),
                     psi=evaluate(self.psi, xi, "psi"), phi=evaluate(self.phi, xi, "phi"))
+
+    def _at_chi_zero(self, xi_tilde: np.ndarray) -> dict | None:
+        # χ = sinc: sin²(ξ)/(h sinc ξ) = ξ sin(ξ)/h; ψ/χ and σ from the filter's closed forms
+        if self._filter is None:
+            return None
+        x = np.asarray(xi_tilde, dtype=float)
+        return dict(psi_over_chi=np.asarray(self._filter.psi_over_sinc(x), dtype=float) * np.ones_like(x),
+                    h_sin2_over_h_chi=x * np.sin(x),
+                    sigma=np.asarray(self._filter.sigma(x), dtype=float) * np.ones_like(x))
 
 
 class ModifiedTrigonometric(Method):
