@@ -8,11 +8,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from importlib import resources
 
 import numpy as np
 import pytest
 
 import trigint as ti
+from trigint import experiments
 from trigint.resonance import resonant_step_sizes
 
 PROB = ti.problems.fpu()
@@ -182,3 +184,51 @@ def test_ensemble_refuses_samples_that_cannot_fit_before_allocating():
     with pytest.raises(ValueError, match="save_every: 100 trajectories .* GiB"):
         ti.ensemble(PROB, "B", [Q0] * 100, [P0] * 100, h=H, n_steps=10**7, save_every=1, progress=False)
     assert time.perf_counter() - start < 1.0
+
+
+def shipped_spec(name: str) -> str:
+    return (resources.files("trigint.experiments") / "specs" / f"{name}.toml").read_text(encoding="utf-8")
+
+
+FIG5 = shipped_spec("fig5")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        ("samples = 2000", "sampels = 2000", "unknown key 'sampels' .did you mean 'samples'"),
+        ("t_end = 2000.0", "t_ned = 2000.0", "unknown key 't_ned' .did you mean 't_end'"),
+        ("omegas = [200.0, 100.0, 50.0]", "omegas = 200.0", "omegas: expected a list"),
+        ("samples = 2000", "samples = 2.7", "samples: expected an integer"),
+        ("samples = 2000", 'samples = "many"', "samples: expected an integer"),
+        ("t_end = 2000.0", "t_end = -1.0", "t_end: must be a finite number > 0"),
+        ("t_end = 2000.0", 't_end = "2*pi"', "t_end: expected a number"),  # no expressions here
+        ('methods = ["A", "B"]', 'methods = ["A", "Q"]', r"methods\[1\]: unknown name 'Q'"),
+        ('energy = "oscillatory"', 'energy = "oscilatory"', "did you mean 'oscillatory'"),
+        ("[quick]", "[quik]", r"unknown table \[quik\] .did you mean 'quick'"),
+        ("t_end = 200.0\n", "t_edn = 200.0\n", "quick: unknown key 't_edn'"),
+        ('problem = "experiment3"', 'problem = "fpu"', "'h_omega' is needed"),
+    ],
+)
+def test_spec_schema(tmp_path, old, new, match):
+    assert old in FIG5
+    path = tmp_path / "mine.toml"
+    path.write_text(FIG5.replace(old, new, 1) if old != "t_end = 200.0\n" else FIG5.replace(old, new))
+    with pytest.raises(ValueError, match=match):
+        experiments.load(str(path), quick=True)
+    out = run_cli("run", str(path), "--quick", "--out", str(tmp_path))
+    assert out.returncode == 2 and "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+def test_spec_schema_checks_panels_and_expressions(tmp_path):
+    fig1 = shipped_spec("fig1")
+    for old, new, match in [
+        ('h_omega = "2*pi/3"', 'h_omega = "2*pi/"', r"panel\[0\].h_omega: .* not an arithmetic expression"),
+        ('h_omega = "2*pi/3"', 'h_omega = "2*l"', r"panel\[0\].h_omega: cannot evaluate"),
+        ("l = [1, 2, 3, 4, 5, 6, 7]", "l = [1, 2.5]", r"panel\[0\].l\[1\]: expected an integer"),
+        ("tolerance = 0.15", "tolerence = 0.15", "did you mean 'tolerance'"),
+    ]:
+        path = tmp_path / "f.toml"
+        path.write_text(fig1.replace(old, new, 1))
+        with pytest.raises(ValueError, match=match):
+            experiments.load(str(path))

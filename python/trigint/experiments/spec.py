@@ -61,9 +61,13 @@ def load(name_or_path, quick: bool = False) -> dict:
         spec = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{origin}: not valid TOML: {exc}") from None
-    fig = spec.get("figure")
-    if not isinstance(fig, dict) or fig.get("kind") not in KINDS:
-        raise ValueError(f"{origin}: needs a [figure] table with kind one of {KINDS}")
+    from .schema import SpecError, validate
+
+    try:
+        validate(spec)
+    except SpecError as exc:
+        raise ValueError(f"{origin}: {exc}") from None
+    fig = spec["figure"]
     fig.setdefault("id", Path(str(origin)).stem)
     # Other top-level tables ([[panel]], [claims]) belong to the figure.
     for key in [k for k in spec if k not in ("figure", "quick")]:
