@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _native
+from .integrate import MAX_STEPS, check_steps
 from .methods import Method
 from .problem import OscillatoryProblem
 
@@ -66,7 +67,10 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
     p0 = _batched(p0, "p0", n)
     if np.iscomplexobj(h) or isinstance(h, bool | str):
         raise TypeError(f"h: expected a positive number or an array of them, got {h!r}")
-    h_arr = np.asarray(h, dtype=float).reshape(-1) if np.ndim(h) else np.asarray([h], dtype=float)
+    try:
+        h_arr = np.asarray(h, dtype=float).reshape(-1) if np.ndim(h) else np.asarray([h], dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"h: expected a positive number or an array of them, got {h!r}") from None
     if np.ndim(h) > 1:
         raise ValueError(f"h: expected a scalar or shape (B,), got shape {np.shape(h)}")
     if h_arr.size == 0:
@@ -86,14 +90,19 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
     if n_steps is not None:
         if isinstance(n_steps, bool) or not isinstance(n_steps, int | np.integer) or n_steps < 1:
             raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
-        steps = np.full(count, int(n_steps), dtype=np.int64)
+        steps = np.full(count, check_steps(int(n_steps), "n_steps"), dtype=np.int64)
     else:
         if isinstance(t_end, bool) or not isinstance(t_end, int | float | np.integer | np.floating):
             raise TypeError(f"t_end: expected a number, got {t_end!r} ({type(t_end).__name__})")
         t_end = float(t_end)
         if not np.isfinite(t_end) or t_end <= 0:
             raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
-        steps = np.rint(t_end / h_arr).astype(np.int64)
+        ratio = t_end / h_arr
+        if np.any(ratio > MAX_STEPS):
+            t = int(np.argmax(ratio))
+            raise ValueError(f"t_end: {t_end:g} is {ratio[t]:.3g} steps for trajectory {t} (h = {h_arr[t]:g}); "
+                             f"at most 2**53 = {MAX_STEPS:.3g} steps are allowed")
+        steps = np.rint(ratio).astype(np.int64)
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")

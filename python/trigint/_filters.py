@@ -92,16 +92,28 @@ def lookup(name: str) -> Filter:
 
 
 def evaluate(f: Callable, x: np.ndarray, what: str) -> np.ndarray:
-    """f at the points x, vectorized if f allows it, else point by point; must be finite."""
+    """f at the points x, vectorized if f allows it, else point by point; must be real and finite."""
     try:
-        y = np.asarray(f(x), dtype=float)
+        y = _as_real(f(x), what)
         if y.shape != x.shape:
             y = np.broadcast_to(y, x.shape).astype(float) if y.ndim == 0 else None
     except TypeError:  # a scalar-only callable (math.sin, say): one point at a time
         y = None
     if y is None:
-        y = np.array([float(f(float(v))) for v in x], dtype=float)
+        values = [_as_real(f(float(v)), what) for v in x]
+        if any(v.ndim != 0 for v in values):
+            raise ValueError(f"{what}: must return one number per xi (or an array shaped like xi)")
+        y = np.array(values, dtype=float).reshape(x.shape)
     if not np.all(np.isfinite(y)):
         i = int(np.flatnonzero(~np.isfinite(y))[0])
         raise ValueError(f"{what}: not finite at xi = {x[i]!r} (value {y[i]!r})")
     return y
+
+
+def _as_real(value, what: str) -> np.ndarray:
+    if np.iscomplexobj(value):
+        raise TypeError(f"{what}: returned complex values; filter functions must be real")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{what}: returned {value!r}, not real numbers") from None

@@ -34,9 +34,12 @@ def parse(expr, names: Sequence[str], what: str = "expr"):
     if isinstance(expr, str):
         local = {name: sp.Symbol(name) for name in names}
         try:
-            return sp.sympify(expr, locals=local)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            out = sp.sympify(expr, locals=local)
+        except Exception as exc:  # SymPy's parser raises many kinds (SyntaxError, TokenError, ...)
             raise ValueError(f"{what}: could not parse {expr!r}: {exc}") from None
+        if not isinstance(out, sp.Basic):
+            raise ValueError(f"{what}: {expr!r} is not an expression (it names {type(out).__name__})")
+        return out
     if isinstance(expr, int | float) and not isinstance(expr, bool):
         return sp.Float(expr) if isinstance(expr, float) else sp.Integer(expr)
     if not isinstance(expr, sp.Basic):
@@ -80,6 +83,8 @@ def parameters(params: Mapping | None) -> dict[str, float]:
     out = {}
     for k, v in params.items():
         name = str(k)
+        if not isinstance(k, str) or not k.isidentifier():
+            raise ValueError(f"params: {k!r} is not a valid parameter name (a Python identifier)")
         if isinstance(v, complex) or (hasattr(v, "is_real") and v.is_real is False):
             raise ValueError(f"params: {name} = {v!r} is complex; parameters must be real numbers")
         try:
@@ -95,7 +100,10 @@ def parameters(params: Mapping | None) -> dict[str, float]:
 class Compiler:
     """Emits a tape for expressions in `coordinates` with numeric `params` (by name)."""
 
-    def __init__(self, coordinates: Sequence, params: Mapping[str, float]):
+    def __init__(self, coordinates: Sequence, params: Mapping[str, float], what: str = "expr",
+                 inputs: str = "coordinates"):
+        #: the arguments named in error messages
+        self.what, self.inputs_name = what, inputs
         self.inputs = {s: i for i, s in enumerate(coordinates)}
         self.params = dict(params)
         self.ops: list[tuple] = []
@@ -116,12 +124,12 @@ class Compiler:
     def number(self, e) -> float:
         sp = sympy()
         if e.is_real is False or (e.has(sp.I)):
-            raise ValueError(f"expr: the constant {e} is complex; the potential must be real")
+            raise ValueError(f"{self.what}: the constant {e} is complex; the potential must be real")
         if e in (sp.nan, sp.oo, -sp.oo, sp.zoo):
-            raise ValueError(f"expr: the constant {e} is not finite")
+            raise ValueError(f"{self.what}: the constant {e} is not finite")
         x = float(e)
         if not math.isfinite(x):
-            raise ValueError(f"expr: the constant {e} is not finite")
+            raise ValueError(f"{self.what}: the constant {e} is not finite")
         return x
 
     def check(self, expr) -> None:
@@ -130,11 +138,11 @@ class Compiler:
         for s in expr.free_symbols:
             if s not in self.inputs and str(s) not in self.params:
                 raise ValueError(
-                    f"expr: the symbol {s} is neither a coordinate ({self.allowed}) nor a parameter"
+                    f"{self.what}: the symbol {s} is neither in {self.inputs_name} ({self.allowed}) nor in params"
                     f" ({', '.join(self.params) or 'none given'}); pass params={{'{s}': value}}"
                 )
         if expr.has(sp.I):
-            raise ValueError("expr: contains the imaginary unit; the potential must be real")
+            raise ValueError(f"{self.what}: contains the imaginary unit; the potential must be real")
 
     def compile(self, expr) -> int:
         """The tape index of expr (iterative post-order, so deep expressions do not recurse)."""
@@ -159,7 +167,7 @@ class Compiler:
         supported = isinstance(e, sp.Add | sp.Mul | sp.Pow) or (
             type(e).__name__ in FUNCTIONS and len(e.args) == 1)
         if not supported:  # refused before its arguments are looked at
-            raise ValueError(f"expr: {_describe(e)} is not supported; supported are {SUPPORTED}")
+            raise ValueError(f"{self.what}: {_describe(e)} is not supported; supported are {SUPPORTED}")
         if isinstance(e, sp.Pow):
             return [e.base] if e.exp.is_Number or _is_param(e.exp, self.params) else [e.base, e.exp]
         return list(e.args)
@@ -182,7 +190,7 @@ class Compiler:
         name = type(e).__name__
         if name in FUNCTIONS and len(e.args) == 1:
             return self.emit((FUNCTIONS[name], m[e.args[0]]))
-        raise ValueError(f"expr: {_describe(e)} is not supported; supported are {SUPPORTED}")
+        raise ValueError(f"{self.what}: {_describe(e)} is not supported; supported are {SUPPORTED}")
 
     def _sum(self, args) -> int:
         sp = sympy()
@@ -232,7 +240,7 @@ class Compiler:
         if x.is_Integer:
             k = int(x)
             if abs(k) > 1 << 20:
-                raise ValueError(f"expr: the exponent {k} is too large (at most 2^20)")
+                raise ValueError(f"{self.what}: the exponent {k} is too large (at most 2^20)")
             if k < 0:
                 return self.emit(("div", self.const(1.0), self.emit(("powi", b, -k))))
             return self.emit(("powi", b, k))
@@ -253,7 +261,7 @@ class Compiler:
         if _is_param(x, self.params):
             return self.emit(("powf", b, self.params[str(x)]))
         raise ValueError(
-            f"expr: the power {e} has a non-constant exponent {x}; supported are integer and "
+            f"{self.what}: the power {e} has a non-constant exponent {x}; supported are integer and "
             "rational (or parameter) exponents; write exp(y*log(x)) for x**y"
         )
 
@@ -274,8 +282,10 @@ def _describe(e) -> str:
     return f"{type(e).__name__} (in {e})"
 
 
-def tape(expr, coordinates: Sequence, params: Mapping[str, float]) -> dict:
-    """The tape of expr in `coordinates` with numeric `params`."""
-    c = Compiler(coordinates, params)
+def tape(expr, coordinates: Sequence, params: Mapping[str, float], what: str = "expr",
+         inputs: str = "coordinates") -> dict:
+    """The tape of expr in `coordinates` with numeric `params` (errors name the arguments `what`
+    and `inputs`)."""
+    c = Compiler(coordinates, params, what, inputs)
     out = c.compile(expr)
     return {"n": len(coordinates), "ops": c.ops, "output": out}

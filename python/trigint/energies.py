@@ -57,8 +57,10 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
-    q = np.asarray(q, dtype=float)
-    p = np.asarray(p, dtype=float)
+    from . import _check
+
+    q = _check.real_array(q, "q", ndim=None, finite=False)
+    p = _check.real_array(p, "p", ndim=None, finite=False)
     if q.shape != p.shape or q.ndim not in (1, 2) or q.shape[-1] != problem.dim:
         raise ValueError(
             f"q, p: expected equal shapes (n,) or (m, n) with n = {problem.dim}, got {q.shape} and {p.shape}"

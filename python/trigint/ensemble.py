@@ -19,11 +19,12 @@ import warnings
 import numpy as np
 import xarray as xr
 
+from . import _check
 from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
-from .integrate import MAX_SAMPLE_BYTES
+from .integrate import MAX_SAMPLE_BYTES, check_steps
 from .methods import Method, resolve_method
 from .problem import OscillatoryProblem
 
@@ -89,11 +90,15 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
                                    or save_every < 1):
         raise ValueError(f"save_every: must be an integer >= 1 or None, got {save_every!r}")
+    if save_every is not None:
+        check_steps(int(save_every), "save_every")
     if not isinstance(track_energies, bool | np.bool_):
         raise TypeError(f"track_energies: expected True or False, got {track_energies!r}")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int | np.integer)
                                 or threads < 1):
         raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
+    if threads is not None and threads > MAX_THREADS:
+        raise ValueError(f"threads: at most {MAX_THREADS}, got {threads}")
     count = len(batch)
     _check_memory(problem, batch, save_every)
     chunk = _chunk_size(chunk_size, count, client, threads)
@@ -102,14 +107,17 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
     args = core_arguments(problem)
+    # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
-                  threads=threads)
+                  threads=None if threads is None else int(min(threads, count)))
     sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
     results: dict[int, dict] = {}
     todo = list(range(len(spans)))
     if sink is not None:
         done = sink.done()
         todo = [i for i in todo if not done[i]]
+    if progress is not None and not isinstance(progress, bool | np.bool_):
+        raise TypeError(f"progress: expected True, False or None, got {type(progress).__name__}")
     show = progress if progress is not None else int(batch.n_steps.sum()) >= PROGRESS_FROM
     bar = _bar(show, len(spans), len(spans) - len(todo))
     interrupted = False
@@ -155,17 +163,13 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     >>> s.dims
     ('h_omega',)
     """
-    h_omega = np.asarray(h_omega, dtype=float).reshape(-1)
-    if h_omega.size == 0:
-        raise ValueError("h_omega: give at least one value")
-    if np.any(~np.isfinite(h_omega) | (h_omega <= 0)):
-        raise ValueError("h_omega: values must be finite and > 0")
-    ref = float(np.max(problem.omega)) if omega_ref is None else float(omega_ref)
-    if not (np.isfinite(ref) and ref > 0):
-        raise ValueError(f"omega_ref: must be finite and > 0, got {omega_ref}")
-    names = energy_names(problem.n_blocks)
-    if energy not in names:
-        raise ValueError(f"energy: unknown name {energy!r}; valid: {names}")
+    if not isinstance(problem, OscillatoryProblem):
+        raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    h_omega = _check.real_array(h_omega, "h_omega", positive=True).reshape(-1)
+    ref = float(np.max(problem.omega)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
+    if not ref > 0:
+        raise ValueError("omega_ref: the problem has no oscillatory frequency; give omega_ref")
+    _check.choice(energy, "energy", energy_names(problem.n_blocks))
     ds = ensemble(problem, method, q0, p0, h=h_omega / ref, t_end=t_end, **kwargs)
     da = ds.max_deviation.sel(energy=energy).drop_vars("energy")
     da = da.rename(trajectory="h_omega").assign_coords(h_omega=h_omega, h=("h_omega", ds.h.values),
@@ -185,20 +189,22 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
     >>> Q.tolist()
     [[1.0, 0.0], [1.001, 0.0]]
     """
-    q0 = np.asarray(q0, dtype=float).reshape(-1)
-    p0 = np.asarray(p0, dtype=float).reshape(-1)
-    deltas = np.asarray(deltas, dtype=float).reshape(-1)
-    if deltas.size == 0 or not np.all(np.isfinite(deltas)):
-        raise ValueError("deltas: give at least one finite perturbation")
-    if component not in ("q", "p"):
-        raise ValueError(f"component: 'q' or 'p', got {component!r}")
-    if not 0 <= index < q0.size:
-        raise ValueError(f"index: must be in [0, {q0.size}), got {index}")
+    q0 = _check.real_array(q0, "q0").reshape(-1)
+    p0 = _check.real_array(p0, "p0").reshape(-1)
+    if p0.size != q0.size:
+        raise ValueError(f"p0: has {p0.size} entries, q0 has {q0.size}")
+    deltas = _check.real_array(deltas, "deltas").reshape(-1)
+    _check.choice(component, "component", ("q", "p"))
+    index = _check.integer(index, "index", low=0, high=q0.size - 1)
     Q = np.repeat(q0[None, :], deltas.size, axis=0)
     P = np.repeat(p0[None, :], deltas.size, axis=0)
     target = Q if component == "q" else P
     target[:, index] += deltas
     return Q, P
+
+
+#: the most threads one call may ask for
+MAX_THREADS = 1024
 
 
 def _check_memory(problem, batch, save_every) -> None:

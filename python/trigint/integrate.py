@@ -36,6 +36,10 @@ def _sample_memory_limit() -> int:
     return int(min(8 << 30, physical // 4))
 
 
+#: the longest run accepted: 2**53 steps (step numbers stay exact in a double; at 7 ns per
+#: step it would take two years)
+MAX_STEPS = 2**53
+
 #: refuse runs whose samples would need more memory than this
 MAX_SAMPLE_BYTES = _sample_memory_limit()
 
@@ -94,7 +98,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     method = resolve_method(method)
     h = _check_h(h)
     n_steps = _resolve_steps(h, t_end, n_steps)
-    save_every = _positive_int(save_every, "save_every")
+    save_every = check_steps(_positive_int(save_every, "save_every"), "save_every")
     if not isinstance(form, str) or form not in FORMS:
         raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
     track_energies = _flag(track_energies, "track_energies")
@@ -155,14 +159,26 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
     if (t_end is None) == (n_steps is None):
         raise ValueError("t_end, n_steps: give exactly one of them")
     if n_steps is not None:
-        return _positive_int(n_steps, "n_steps")
+        return check_steps(_positive_int(n_steps, "n_steps"), "n_steps")
     t_end = _number(t_end, "t_end")
     if not np.isfinite(t_end) or t_end <= 0:
         raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
-    steps = round(t_end / h)
+    steps = t_end / h
+    if steps > MAX_STEPS:
+        raise ValueError(f"t_end: {t_end:g} is {steps:.3g} steps of h = {h:g}; at most 2**53 = {MAX_STEPS:.3g} "
+                         "steps are allowed")
+    steps = round(steps)
     if steps < 1:
         raise ValueError(f"t_end: {t_end} is shorter than half a step h = {h}")
     return int(steps)
+
+
+def check_steps(n: int, name: str) -> int:
+    """n, if it is a run length this library can count (at most 2**53 steps)."""
+    if n > MAX_STEPS:
+        raise ValueError(f"{name}: {n:.3g} steps is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
+                         "(at 7 ns per step that would take two years)")
+    return n
 
 
 def _number(value, name: str) -> float:
@@ -205,6 +221,8 @@ def _progress(progress, n_steps: int, slow: bool):
     """A (callback, close) pair: a tqdm bar, the user's callable, or nothing."""
     if callable(progress) and not isinstance(progress, bool):
         return progress, lambda: None
+    if progress is not None and not isinstance(progress, bool | np.bool_):
+        raise TypeError(f"progress: expected True, False, None or a callable, got {type(progress).__name__}")
     show = progress if progress is not None else (n_steps >= PROGRESS_BAR_FROM or (slow and n_steps >= 10**5))
     if not show:
         return None, lambda: None

@@ -297,10 +297,15 @@ class ModifiedTrigonometric(Method):
                  name: str = "modified"):
         if not callable(omega_tilde):
             raise TypeError("omega_tilde: expected a callable xi = h*omega -> h*omega_tilde")
+        for arg, fn in (("psi", psi), ("phi", phi), ("omega_tilde_inverse", omega_tilde_inverse)):
+            if fn is not None and not callable(fn):
+                raise TypeError(f"{arg}: expected a callable of h*omega_tilde, got {type(fn).__name__}")
+        if not isinstance(name, str):
+            raise TypeError(f"name: expected a string, got {type(name).__name__}")
         self._omega_tilde = omega_tilde
         self._inverse = omega_tilde_inverse
-        self.psi = psi or sinc
-        self.phi = phi or one
+        self.psi = psi if psi is not None else sinc
+        self.phi = phi if phi is not None else one
         if isinstance(chi, str):
             if chi.lower().replace("_", "-") not in ("mclachlan-stern", "mclachlan", "ms"):
                 raise ValueError(f"chi: unknown name {chi!r}; the named choice is 'mclachlan-stern'")
@@ -369,12 +374,15 @@ class AlphaMethod(ModifiedTrigonometric):
     """
 
     def __init__(self, alpha: float, name: str | None = None):
-        alpha = float(alpha)
-        if not np.isfinite(alpha):
-            raise ValueError(f"alpha: must be finite, got {alpha}")
+        from . import _check
+
+        alpha = _check.real(alpha, "alpha")
         self.alpha = alpha
         super().__init__(self._xi_tilde, psi=None, phi=None, chi=None,
                          omega_tilde_inverse=self._xi_from_tilde, name=name or f"alpha={alpha:g}")
+
+    def _check_frequency_map(self) -> None:
+        """2 arcsin(½ξ/√(1 + αξ²)) maps 0 to 0 and increases wherever it is defined."""
 
     @property
     def h_omega_limit(self) -> float:

@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from . import _native, _tape
+from . import _check, _native, _tape
 
 
 class Potential(ABC):
@@ -37,7 +37,7 @@ class Potential(ABC):
         if self.dim is not None and self.dim != n:
             raise ValueError(
                 f"potential: {type(self).__name__} acts on {self.dim} coordinates, "
-                f"but the problem has {n}"
+                f"but the problem (omega, q) has {n}"
             )
 
     def _evaluate(self, q) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -212,23 +212,21 @@ class PolynomialPotential(Potential):
     """
 
     def __init__(self, coefficients: Sequence[float], exponents):
+        c = _check.real_array(coefficients, "coefficients").reshape(-1)
         try:
-            c = np.asarray(coefficients, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise TypeError("coefficients: expected a sequence of real numbers") from None
-        e = np.asarray(exponents)
-        if e.ndim != 2 or e.shape[0] != c.size or e.shape[1] == 0:
-            raise ValueError(
-                f"exponents: expected shape (number of terms, n) = ({c.size}, n) with n >= 1, "
-                f"got {e.shape}"
-            )
-        if not np.all(np.isfinite(c)):
-            raise ValueError("coefficients: must be finite")
+            e = np.asarray(exponents)
+        except (TypeError, ValueError, OverflowError):
+            raise TypeError("exponents: expected an array of non-negative integers, shape (terms, n)") from None
+        if e.ndim != 2 or e.shape[1] == 0:
+            raise ValueError(f"exponents: expected shape (number of terms, n) with n >= 1, got {e.shape}")
+        if e.shape[0] != c.size:
+            raise ValueError(f"coefficients, exponents: {c.size} coefficient(s) but {e.shape[0]} row(s) of "
+                             "exponents; give one row per term")
         if e.dtype.kind not in "iuf" or (e.dtype.kind == "f" and not np.all(np.equal(np.mod(e, 1), 0))):
             raise ValueError("exponents: must be non-negative integers")
+        if np.any(e < 0) or np.any(e > 2**20):
+            raise ValueError("exponents: must be non-negative integers of at most 2**20")
         e = e.astype(np.int64)
-        if np.any(e < 0):
-            raise ValueError("exponents: must be non-negative integers")
         self.coefficients = c
         self.exponents = e
         self.dim = int(e.shape[1])
@@ -337,7 +335,7 @@ class ChainPotential(Potential):
         params = _tape.parameters(params)
         expr = _tape.parse(v, [str(var), *params], "v")
         rows = _linear_rows(self.dim, pairs, sites, matrix)
-        self.terms.append({"v": _tape.tape(expr, [var], params), "map": rows})
+        self.terms.append({"v": _tape.tape(expr, [var], params, "v", "variable"), "map": rows})
         self._descriptions.append(f"{len(rows['ptr']) - 1} x V({var}) = {expr}")
         _native.instructions(self._spec(self.dim))  # compile now: errors here, not later
         return self
@@ -359,7 +357,7 @@ def _linear_rows(n: int, pairs, sites, matrix) -> dict:
     if pairs is not None:
         try:
             p = np.asarray(list(pairs), dtype=np.int64)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise TypeError("pairs: expected a sequence of index pairs (i, j)") from None
         if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] == 0:
             raise ValueError(f"pairs: expected shape (terms, 2), got {p.shape}")
@@ -373,7 +371,7 @@ def _linear_rows(n: int, pairs, sites, matrix) -> dict:
     elif sites is not None:
         try:
             s = np.asarray(list(sites), dtype=np.int64).reshape(-1)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise TypeError("sites: expected a sequence of coordinate indices") from None
         if s.size == 0:
             raise ValueError("sites: empty")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _check
 from .potentials import Potential
 
 
@@ -34,7 +35,7 @@ class OscillatoryProblem:
     """
 
     def __init__(self, omega, potential: Potential, *, blocks=None):
-        omega = np.asarray(omega, dtype=float)
+        omega = _check.real_array(omega, "omega", ndim=None, finite=False, nonempty=False)
         if omega.ndim != 1 or omega.size == 0:
             raise ValueError(f"omega: expected a 1-d array of n >= 1 frequencies, got shape {omega.shape}")
         if not np.all(np.isfinite(omega)):

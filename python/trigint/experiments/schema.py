@@ -162,7 +162,8 @@ KEYS = {
     },
     "methods": {
         **COMMON, "problem": Str(("experiment3", "fpu")), "m": Int(1, 10**4), "h_omega": Expr(),
-        "methods": List(Method()), "omegas": List(POSITIVE), "t_end": POSITIVE, "growth_exponent": Float(), "tolerance": POSITIVE, "ratio_max": POSITIVE,
+        "methods": List(Method()), "omegas": List(POSITIVE), "t_end": POSITIVE, "growth_exponent": Float(),
+        "tolerance": POSITIVE, "ratio_max": POSITIVE,
     },
 }
 REQUIRED = {
@@ -201,7 +202,7 @@ def validate(raw: dict) -> None:
     if not isinstance(fig, dict):
         raise SpecError("needs a [figure] table")
     kind = fig.get("kind")
-    if kind not in KEYS:
+    if not isinstance(kind, str) or kind not in KEYS:
         raise SpecError(f"figure.kind: {kind!r} is not one of {', '.join(KEYS)}"
                         f"{_suggest(str(kind), KEYS) if isinstance(kind, str) else ''}")
     keys = KEYS[kind]

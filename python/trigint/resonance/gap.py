@@ -6,9 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import _check
 from ..methods import _check_h
-from ._lattice import half_ball, hermite_basis, in_lattice
-from .conditions import frequencies
+from ._lattice import check_size, half_ball, hermite_basis, in_lattice
+from .conditions import _check_h_omega, frequencies
 
 TWO_PI = 2.0 * np.pi
 
@@ -84,7 +85,8 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
     if h >= 1:
         raise ValueError(f"h: Lemma 5.1 is stated for 0 < h < 1, got {h}")
     w = frequencies(omega)
-    N = _check_N(N)
+    _check_h_omega(h, w)
+    N = _check_N(N, w.size)
     delta = _check_delta(delta)
     ks = half_ball(w.size, N + 1)
     values = np.abs(np.sin(0.5 * h * (ks @ w)))
@@ -124,7 +126,8 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     """
     h = _check_h(h)
     w = frequencies(omega)
-    N = _check_N(N)
+    _check_h_omega(h, w)
+    N = _check_N(N, w.size)
     delta = _check_delta(delta)
     alpha, mu = gap(h, w, N, delta)
     upper, lower = h ** (1 - alpha + mu), h ** (1 - alpha - mu)
@@ -162,14 +165,14 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     )
 
 
-def _check_N(N) -> int:
-    if isinstance(N, bool) or not isinstance(N, int | np.integer) or N < 1:
-        raise ValueError(f"N: must be an integer >= 1, got {N!r}")
-    return int(N)
+def _check_N(N, ell: int) -> int:
+    N = _check.integer(N, "N", low=1)
+    check_size(ell, N + 1, "N")
+    return N
 
 
 def _check_delta(delta) -> float:
-    delta = float(delta)
+    delta = _check.real(delta, "delta")
     if not 0 < delta <= 0.25:
         raise ValueError(f"delta: must be in (0, 1/4], got {delta}")
     return delta

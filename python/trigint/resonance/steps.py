@@ -7,6 +7,7 @@ from math import gcd
 
 import numpy as np
 
+from .. import _check
 from ._lattice import half_ball
 from .conditions import frequencies
 
@@ -64,11 +65,11 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
     ['2π/3']
     """
     w = frequencies(omega)
-    lo, hi = (float(x) for x in h_omega_range)
-    if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
-        raise ValueError(f"h_omega_range: need 0 <= low < high, got ({lo}, {hi})")
-    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
-        raise ValueError(f"order: must be an integer >= 1, got {order!r}")
+    bounds = _check.real_array(h_omega_range, "h_omega_range").reshape(-1)
+    if bounds.size != 2 or not 0 <= bounds[0] < bounds[1]:
+        raise ValueError(f"h_omega_range: need (low, high) with 0 <= low < high, got {h_omega_range!r}")
+    lo, hi = float(bounds[0]), float(bounds[1])
+    order = _check.integer(order, "order", low=1)
     vectors = _half_ball_size(w.size, int(order))
     if vectors > MAX_VECTORS:
         raise ValueError(
@@ -76,7 +77,7 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
             f"{MAX_VECTORS:.0e} are enumerated (choose order <= {_largest_order(w.size)})"
         )
     # The largest frequency, as scan() and the paper's figures use it.
-    ref = float(np.max(w)) if omega_ref is None else float(omega_ref)
+    ref = float(np.max(w)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:
         raise ValueError(f"omega_ref: must be > 0, got {ref}")
     found: dict[float, ResonantStep] = {}
