@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 OUT    ?= reproduction
 
-.PHONY: all install test test-rust test-python lint reproduce bench bench-deps bench-smoke wheel wheel-test clean
+.PHONY: all install test test-rust test-python lint reproduce docs bench bench-deps bench-smoke wheel wheel-test clean
 
 all: test
 
@@ -34,6 +34,14 @@ lint: install
 # The main job: the paper's Figures 1-5 at full resolution, their data and the measured claims.
 reproduce: install
 	$(VENV)/bin/trigint reproduce all --out $(OUT)
+
+# The documentation site into docs/_build/html; warnings are errors. The gallery scripts run,
+# and the reproduction page runs the paper's figures (about 35 s; TRIGINT_DOCS_QUICK=1 for the
+# reduced versions).
+docs: install
+	$(PY) -c "import tomllib; print(*tomllib.load(open('pyproject.toml', 'rb'))['project']['optional-dependencies']['docs'], sep='\n')" > $(VENV)/docs-requirements.txt
+	$(PY) -m pip install --quiet -r $(VENV)/docs-requirements.txt
+	MPLBACKEND=Agg $(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
 
 bench-deps: install
 	$(PY) -m pip install --quiet -e '.[test,bench]'
