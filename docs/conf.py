@@ -1,4 +1,5 @@
-"""Sphinx configuration: API reference from the docstrings (numpydoc), a gallery of executed
+"""Sphinx configuration (no math extension: formulas are written in Unicode, so the pages load
+nothing from the network): API reference from the docstrings (numpydoc), a gallery of executed
 examples (sphinx-gallery), narrative pages in Markdown (MyST), and a reproduction page built
 from a fresh run of the paper's figures."""
 
@@ -21,7 +22,6 @@ version = release = trigint.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "numpydoc",
     "myst_parser",
@@ -35,7 +35,6 @@ autosummary_generate = True
 autodoc_default_options = {"members": True, "inherited-members": False}
 numpydoc_show_class_members = False
 numpydoc_validation_checks: set[str] = set()
-myst_enable_extensions = ["dollarmath"]
 suppress_warnings = ["myst.header"]
 
 sphinx_gallery_conf = {
@@ -45,6 +44,7 @@ sphinx_gallery_conf = {
     "download_all_examples": False,
     "remove_config_comments": True,
     "matplotlib_animations": False,
+    "write_computation_times": False,  # its page loads scripts from CDNs
 }
 
 

@@ -5,7 +5,7 @@ A resonance scan with the theory's resonant step sizes
 The maximum deviation of H_ω over 0 ≤ t ≤ 2000 as a function of hω, for method B on the FPU
 problem (the paper's Figure 3, on a shorter interval). Dashed lines mark the step sizes with
 h k ω = 2π r, ‖k‖ ≤ 6, listed by :func:`trigint.resonance.resonant_step_sizes`: the peaks sit
-on them.
+in the near-resonance band of width √h next to them, where (3.6) fails.
 """
 
 import matplotlib.pyplot as plt
