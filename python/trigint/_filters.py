@@ -9,7 +9,15 @@ import numpy as np
 
 
 def sinc(x) -> np.ndarray:
-    """sinc(ξ) = sin(ξ)/ξ with sinc(0) = 1 (unnormalized, unlike ``numpy.sinc``)."""
+    """sinc(ξ) = sin(ξ)/ξ with sinc(0) = 1 (unnormalized, unlike ``numpy.sinc``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trigint import sinc
+    >>> round(float(sinc(np.pi / 2)), 12), float(sinc(0.0))
+    (0.636619772368, 1.0)
+    """
     x = np.asarray(x, dtype=float)
     out = np.ones_like(x)
     nz = x != 0

@@ -29,6 +29,13 @@ class Coefficients:
     """Per-coordinate numbers of a method at step size h (all arrays of shape (n,)).
 
     For slow coordinates (ω = 0) everything is that of Störmer–Verlet: c = χ = ψ = φ = 1.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> co = ti.Trigonometric("B").coefficients(0.1, [0.0, 10.0])
+    >>> co.sigma.tolist(), round(float(co.chi[1]), 8)
+    ([0.0, 1.0], 0.84147098)
     """
 
     h: float
@@ -62,7 +69,14 @@ class Coefficients:
 
 
 class Method(ABC):
-    """A method of the form (2.5): its per-coordinate coefficients at (h, ω)."""
+    """A method of the form (2.5): its per-coordinate coefficients at (h, ω).
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> isinstance(ti.Trigonometric("B"), ti.Method), isinstance(ti.IMEX(), ti.Method)
+    (True, True)
+    """
 
     name: str = "method"
 

@@ -55,7 +55,19 @@ def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=No
 
 
 def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
-    """Saves a figure (or an axis's figure) as PNG and PDF next to each other."""
+    """Saves a figure (or an axis's figure) as PNG and PDF next to each other.
+
+    Examples
+    --------
+    >>> import tempfile, matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from pathlib import Path
+    >>> import matplotlib.pyplot as plt
+    >>> from trigint.plotting import save
+    >>> paths = save(plt.figure(), Path(tempfile.mkdtemp()) / "empty")
+    >>> sorted(p.suffix for p in paths)
+    ['.pdf', '.png']
+    """
     fig = getattr(fig_or_ax, "figure", fig_or_ax)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -72,7 +84,18 @@ def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
 
 def figure(ds):
     """The figure of an experiment dataset (from :func:`trigint.experiments.run`), laid out like
-    the paper's; returns a matplotlib Figure."""
+    the paper's; returns a matplotlib Figure.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from trigint import experiments
+    >>> from trigint.plotting import figure
+    >>> fig = figure(experiments.run(experiments.load("fig5", quick=True)))
+    >>> type(fig).__name__
+    'Figure'
+    """
     kind = ds.attrs["kind"]
     return {"families": _plot_families, "perturbed": _plot_perturbed, "scan": _plot_scan,
             "methods": _plot_methods}[kind](ds)

@@ -24,7 +24,15 @@ from . import _check, _native, _tape
 
 
 class Potential(ABC):
-    """Base class: a potential U with its gradient, evaluated row by row on arrays."""
+    """Base class: a potential U with its gradient, evaluated row by row on arrays.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> U = ti.FPUPotential(1)
+    >>> round(U.value([0.1, 0.2]), 8), U.gradient([0.1, 0.2]).round(8).tolist()
+    (0.00205, [0.026, 0.028])
+    """
 
     #: number of coordinates, or None when any number fits (Python callables)
     dim: int | None = None

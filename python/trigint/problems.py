@@ -41,6 +41,13 @@ def fpu_initial(m: int = 3, omega: float = 50.0) -> tuple[np.ndarray, np.ndarray
     """The standard initial data [GNI §I.5]: x₀,₁ = 1, y₀,₁ = 1, x₁,₁ = 1/ω, y₁,₁ = 1, others 0.
 
     With ω = 50: H = 2.00120008 and H_ω = 1.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> q0, p0 = ti.problems.fpu_initial(m=1, omega=50.0)
+    >>> q0.tolist(), p0.tolist()
+    ([1.0, 0.02], [1.0, 1.0])
     """
     m = FPUPotential(m).m
     omega = _positive(omega, "omega")
@@ -51,28 +58,64 @@ def fpu_initial(m: int = 3, omega: float = 50.0) -> tuple[np.ndarray, np.ndarray
 
 
 def experiment1(omega: float = 100.0) -> OscillatoryProblem:
-    """Experiment 1: q'' + ω²q = −U'(q) with U(q) = q³ + q⁴, one coordinate of frequency ω."""
+    """Experiment 1: q'' + ω²q = −U'(q) with U(q) = q³ + q⁴, one coordinate of frequency ω.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> ti.problems.experiment1(100.0).omega.tolist()
+    [100.0]
+    """
     return OscillatoryProblem([_positive(omega, "omega")], PolynomialPotential([1.0, 1.0], [[3], [4]]))
 
 
 def experiment1_initial(omega: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
-    """q(0) = 0.1/ω, q'(0) = 1."""
+    """q(0) = 0.1/ω, q'(0) = 1.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> [x.tolist() for x in ti.problems.experiment1_initial(100.0)]
+    [[0.001], [1.0]]
+    """
     return np.array([0.1 / _positive(omega, "omega")]), np.array([1.0])
 
 
 def experiment3(omega: float = 200.0) -> OscillatoryProblem:
-    """Experiment 3: coordinates (q₀, q₁, q₂) with frequencies (0, ω, √2ω), U = 0.01 q₁q₂."""
+    """Experiment 3: coordinates (q₀, q₁, q₂) with frequencies (0, ω, √2ω), U = 0.01 q₁q₂.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> ti.problems.experiment3(100.0).block_frequencies.round(6).tolist()
+    [100.0, 141.421356]
+    """
     omega = _positive(omega, "omega")
     return OscillatoryProblem([0.0, omega, np.sqrt(2.0) * omega], PolynomialPotential([0.01], [[0, 1, 1]]))
 
 
 def experiment3_initial(omega: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
-    """q(0) = (0, 0.3ε, 0.8ε), q'(0) = (0, 0.6, 0.7) with ε = 1/ω."""
+    """q(0) = (0, 0.3ε, 0.8ε), q'(0) = (0, 0.6, 0.7) with ε = 1/ω.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> [x.tolist() for x in ti.problems.experiment3_initial(100.0)]
+    [[0.0, 0.003, 0.008], [0.0, 0.6, 0.7]]
+    """
     eps = 1.0 / _positive(omega, "omega")
     return np.array([0.0, 0.3 * eps, 0.8 * eps]), np.array([0.0, 0.6, 0.7])
 
 
 def experiment3_step(omega: float = 200.0) -> float:
-    """The paper's step size h = 2π/(ω₁ + ω₂), resonant at k = (1, 1), r = 1."""
+    """The paper's step size h = 2π/(ω₁ + ω₂), resonant at k = (1, 1), r = 1.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> h = ti.problems.experiment3_step(100.0)
+    >>> round(float(h * (100.0 + 100.0 * np.sqrt(2)) / (2 * np.pi)), 12)  # h(ω₁ + ω₂) = 2π
+    1.0
+    """
     omega = _positive(omega, "omega")
     return 2.0 * np.pi / (omega + np.sqrt(2.0) * omega)

@@ -27,6 +27,14 @@ class Solution:
         The last step reached (the requested number unless the run stopped early).
     status : str
         ``"completed"``, ``"blow-up"`` or ``"interrupted"``; `message` says more.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
+    >>> sol = ti.integrate(prob, "B", q0, p0, h=0.04, n_steps=100, save_every=50)
+    >>> sol.steps.tolist(), sol.status, sol.q.shape
+    ([0, 50, 100], 'completed', (3, 6))
     """
 
     t: np.ndarray

@@ -21,7 +21,18 @@ __all__ = ["FIGURES", "Claim", "load", "measure", "report", "reproduce", "run", 
 
 
 def run_spec(spec: dict, out: Path, *, log=print) -> tuple[list[Claim], float]:
-    """Runs one spec; writes DIR/<id>.nc, .png and .pdf; returns the measured claims and the seconds."""
+    """Runs one spec; writes DIR/<id>.nc, .png and .pdf; returns the measured claims and the seconds.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from trigint import experiments
+    >>> claims, seconds = experiments.run_spec(experiments.load("fig5", quick=True), Path(tempfile.mkdtemp()),
+    ...                                        log=lambda *a: None)
+    >>> all(c.passed for c in claims)
+    True
+    """
     _announce(spec, log)
     ds, seconds = _compute(spec)
     return _finish(spec, ds, seconds, out, log), seconds
@@ -56,7 +67,18 @@ def _finish(spec: dict, ds, seconds: float, out: Path, log) -> list[Claim]:
 
 
 def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: float | None = None) -> str:
-    """The report of measured claims as Markdown (written to `path`)."""
+    """The report of measured claims as Markdown (written to `path`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from trigint import experiments
+    >>> claims = experiments.measure(experiments.run(experiments.load("fig5", quick=True)))
+    >>> text = experiments.report(claims, {"fig5": 0.1}, Path(tempfile.mkdtemp()) / "report.md", quick=True)
+    >>> text.splitlines()[0]
+    '# Reproduction of Cohen, Gauckler, Hairer, Lubich (BIT 2015), §4'
+    """
     lines = [
         "# Reproduction of Cohen, Gauckler, Hairer, Lubich (BIT 2015), §4",
         "",
@@ -85,7 +107,16 @@ def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed:
 
     Two figures are computed at a time: Figure 4's bottom panel is one sequential run on one
     core, and the other figures fill the second core meanwhile. `seed` ≥ 1 runs every figure on
-    another realization set of its initial values (see ``runners.seeded``)."""
+    another realization set of its initial values (see ``runners.seeded``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from trigint import experiments
+    >>> claims = experiments.reproduce(["fig5"], tempfile.mkdtemp(), quick=True, log=lambda *a: None)
+    >>> all(c.passed for c in claims)
+    True
+    """
     from concurrent.futures import ThreadPoolExecutor
 
     out = Path(out)

@@ -11,6 +11,18 @@ import xarray as xr
 
 @dataclass(frozen=True)
 class Claim:
+    """One claim of the paper's §4, measured on a figure's data: the number, what the paper
+    expects, the tolerance and whether it passes (one row of report.md).
+
+    Examples
+    --------
+    >>> from trigint import experiments
+    >>> ds = experiments.run(experiments.load("fig5", quick=True))
+    >>> claim = experiments.measure(ds)[0]
+    >>> claim.figure, claim.passed, claim.verdict
+    ('fig5', True, 'PASS')
+    """
+
     figure: str
     claim: str
     measured: float
@@ -24,6 +36,15 @@ class Claim:
 
 
 def measure(ds: xr.Dataset) -> list[Claim]:
+    """The claims of a figure's data set (from :func:`trigint.experiments.run`), measured.
+
+    Examples
+    --------
+    >>> from trigint import experiments
+    >>> ds = experiments.run(experiments.load("fig5", quick=True))
+    >>> all(c.passed for c in experiments.measure(ds))
+    True
+    """
     return {"families": _families, "perturbed": _perturbed, "scan": _scan, "methods": _methods}[ds.attrs["kind"]](ds)
 
 

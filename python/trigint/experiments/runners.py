@@ -17,7 +17,15 @@ from .spec import number
 
 
 def run(spec: dict) -> xr.Dataset:
-    """The data of one figure, from its spec."""
+    """The data of one figure, from its spec.
+
+    Examples
+    --------
+    >>> from trigint import experiments
+    >>> ds = experiments.run(experiments.load("fig5", quick=True))
+    >>> ds.attrs["figure"], ds.attrs["kind"]
+    ('fig5', 'methods')
+    """
     kind = spec["figure"]["kind"]
     ds = {"families": run_families, "perturbed": run_perturbed, "scan": run_scan, "methods": run_methods}[kind](
         spec["figure"])

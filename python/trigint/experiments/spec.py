@@ -55,7 +55,15 @@ def number(value, **variables) -> float:
 
 
 def load(name_or_path, quick: bool = False) -> dict:
-    """The spec of a paper figure ("fig1" … "fig5") or of a TOML file, with `[quick]` applied."""
+    """The spec of a paper figure ("fig1" … "fig5") or of a TOML file, with `[quick]` applied.
+
+    Examples
+    --------
+    >>> from trigint import experiments
+    >>> spec = experiments.load("fig5", quick=True)
+    >>> spec["figure"]["kind"], spec["figure"]["t_end"]
+    ('methods', 200.0)
+    """
     text, origin = _read(name_or_path)
     try:
         spec = tomllib.loads(text)

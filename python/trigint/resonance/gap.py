@@ -16,7 +16,15 @@ TWO_PI = 2.0 * np.pi
 
 @dataclass
 class ModifiedFrequencies:
-    """The construction of Lemmas 5.1 and 5.2 and the checks of its conclusions."""
+    """The construction of Lemmas 5.1 and 5.2 and the checks of its conclusions.
+
+    Examples
+    --------
+    >>> from trigint.resonance import modified_frequencies
+    >>> mf = modified_frequencies(0.02, [50.0, 100.0], N=2)
+    >>> type(mf).__name__, mf.module_basis
+    ('ModifiedFrequencies', [[2, -1]])
+    """
 
     h: float
     N: int
@@ -80,6 +88,12 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
     μ depends only on N, ℓ, δ: with M the number of values (one per ±k), μ = δ/(4(M+1)), so by
     pigeonhole one of M + 1 equal sub-intervals of the exponents 1 − α ∈ [1 − δ, 1 − δ/2] is free;
     α is the centre of the widest free stretch.
+
+    Examples
+    --------
+    >>> from trigint.resonance import gap
+    >>> gap(0.01, [50.0], N=2)
+    (0.1875, 0.015625)
     """
     h = _check_h(h)
     if h >= 1:

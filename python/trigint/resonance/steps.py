@@ -16,7 +16,15 @@ TWO_PI = 2.0 * np.pi
 
 @dataclass(frozen=True)
 class ResonantStep:
-    """hω_ref at which h k·ω = 2πr; `order` is ‖k‖₁."""
+    """hω_ref at which h k·ω = 2πr; `order` is ‖k‖₁.
+
+    Examples
+    --------
+    >>> from trigint.resonance import resonant_step_sizes
+    >>> step = resonant_step_sizes([50.0], (2.0, 2.2), order=6)[0]
+    >>> step.k, step.r, step.label()
+    ((3,), 1, '2π/3')
+    """
 
     h_omega: float
     k: tuple[int, ...]
