@@ -280,3 +280,28 @@ def test_sigkill_at_any_moment_then_rerun_equals_a_fresh_run(tmp_path):
         again = run(store, tmp_path / f"r{i}.npy", 5 + i, 2)
         assert again.returncode == 0, (fault, delay, again.stderr[-1500:])
         assert np.array_equal(np.load(tmp_path / f"r{i}.npy"), fresh), (fault, delay)
+
+
+def test_store_resumes_under_another_client_and_chunking(tmp_path):
+    """A store made with 3 trajectories per chunk and one thread, with one chunk's flag cleared
+    (as a kill leaves it), resumes on an executor with another chunk size: the missing chunk is
+    recomputed in the store's own chunking and the result equals the first run."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import zarr
+
+    prob = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    hs = 2 * np.pi / 3 / 50 * np.linspace(0.9, 1.1, 12)
+    store = tmp_path / "s.zarr"
+    first = ti.ensemble(prob, "B", q0, p0, h=hs, t_end=50.0, chunk_size=3, threads=1, store=store,
+                        save_every=100, progress=False)
+    group = zarr.open_group(str(store), mode="a")
+    group["done"][1] = False
+    group["max_deviation"][3:6] = np.nan
+    with ThreadPoolExecutor(2) as pool:
+        again = ti.ensemble(prob, "B", q0, p0, h=hs, t_end=50.0, chunk_size=7, client=pool, store=store,
+                            save_every=100, progress=False)
+    assert np.array_equal(first.max_deviation.values, again.max_deviation.values)
+    assert np.array_equal(first.q.values, again.q.values, equal_nan=True)
+    assert bool(np.all(zarr.open_group(str(store), mode="r")["done"][:]))
