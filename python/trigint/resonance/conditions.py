@@ -230,7 +230,8 @@ class ResonanceReport:
         lines += [
             f"  Theorem {'3.2' if self.modified else '3.1'} with N = {self.N}, delta = {self.delta:g}: "
             f"on 0 <= t <= h^-N = {self.time_scale:.4g}",
-            f"    H_slow changes by O(h^(1-delta))       = O({self.slow_error:.3g})",
+            f"    H_slow changes by O(h^(1-delta))       = O({self.slow_error:.3g})"
+            "  (this one for any N, while H stays bounded)",
             f"    H*_omega changes by O(h^(1-delta)/kappa) = O({self.oscillatory_error:.3g})",
         ]
         lines += [f"  note: {n}" for n in self.notes]
