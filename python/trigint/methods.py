@@ -130,21 +130,7 @@ class Method(ABC):
             for key in ("xi_tilde", "one_minus_cos", "sin", "chi", "psi", "phi"):
                 c[key][fast] = np.asarray(values[key], dtype=float)[inverse]
         singular = fast & (np.abs(c["chi"]) <= SINGULAR_CHI)
-        at_zero = None
-        if np.any(singular):
-            if form != "one-step" or np.any(np.abs(c["sin"][singular]) > 1e-6):
-                self._check_chi(c["chi"], xi, omega, form)
-            at_zero = self._at_chi_zero(c["xi_tilde"][singular])
-            ratio = None if at_zero is None else at_zero["psi_over_chi"]
-            if ratio is None or not np.all(np.isfinite(ratio)):
-                where = np.flatnonzero(singular)
-                j = int(where[0] if ratio is None else where[~np.isfinite(ratio)][0])
-                raise ValueError(
-                    f"h: h*omega[{j}] = {xi[j]:.15g} is {xi[j] / np.pi:.6g}*pi, where chi(h*omega_tilde) vanishes; "
-                    f"the one-step form of method {self.name!r} needs psi/chi there, which is undefined "
-                    f"(psi = {c['psi'][j]:.3g} does not vanish with chi){'' if ratio is not None else ' or unknown'}. "
-                    f"Choose h with h*omega[{j}] away from multiples of pi."
-                )
+        at_zero = self._limits_where_chi_vanishes(c, xi, omega, singular, form) if np.any(singular) else None
         sinc_t = sinc(c["xi_tilde"])
         with np.errstate(divide="ignore", invalid="ignore"):
             sigma = np.where(fast, sinc_t * c["phi"] / c["psi"], 0.0)
@@ -174,6 +160,24 @@ class Method(ABC):
             cos=1.0 - c["one_minus_cos"], modified_p=sigma * chi_over_sinc**2,
             modified_q=sigma * omega_tilde**2, psi_over_chi=psi_over_chi, sin2_over_h_chi=sin2_over_h_chi, **c,
         )
+
+    def _limits_where_chi_vanishes(self, c: dict, xi, omega, singular, form: str) -> dict:
+        """The one-step form's numbers where χ(hω̃) = 0 (at hω̃ = kπ), or the error that says
+        which quantity is undefined there (the two-step momentum always is)."""
+        if form != "one-step" or np.any(np.abs(c["sin"][singular]) > 1e-6):
+            self._check_chi(c["chi"], xi, omega, form)
+        at_zero = self._at_chi_zero(c["xi_tilde"][singular])
+        ratio = None if at_zero is None else at_zero["psi_over_chi"]
+        if ratio is None or not np.all(np.isfinite(ratio)):
+            where = np.flatnonzero(singular)
+            j = int(where[0] if ratio is None else where[~np.isfinite(ratio)][0])
+            raise ValueError(
+                f"h: h*omega[{j}] = {xi[j]:.15g} is {xi[j] / np.pi:.6g}*pi, where chi(h*omega_tilde) vanishes; "
+                f"the one-step form of method {self.name!r} needs psi/chi there, which is undefined "
+                f"(psi = {c['psi'][j]:.3g} does not vanish with chi){'' if ratio is not None else ' or unknown'}. "
+                f"Choose h with h*omega[{j}] away from multiples of pi."
+            )
+        return at_zero
 
     def _check_chi(self, chi: np.ndarray, xi: np.ndarray, omega: np.ndarray, form: str = "two-step") -> None:
         bad = np.flatnonzero(np.abs(chi) <= SINGULAR_CHI)
