@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _native
-from .integrate import MAX_STEPS, check_steps
+from .integrate import MAX_STEPS, _number, check_steps
 from .methods import Method
 from .problem import OscillatoryProblem
 
@@ -92,9 +92,7 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
             raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
         steps = np.full(count, check_steps(int(n_steps), "n_steps"), dtype=np.int64)
     else:
-        if isinstance(t_end, bool) or not isinstance(t_end, int | float | np.integer | np.floating):
-            raise TypeError(f"t_end: expected a number, got {t_end!r} ({type(t_end).__name__})")
-        t_end = float(t_end)
+        t_end = _number(t_end, "t_end")
         if not np.isfinite(t_end) or t_end <= 0:
             raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
         ratio = t_end / h_arr

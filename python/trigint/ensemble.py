@@ -24,7 +24,7 @@ from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
-from .integrate import MAX_SAMPLE_BYTES, check_steps
+from .integrate import MAX_SAMPLE_BYTES, check_steps, sample_bytes
 from .methods import Method, resolve_method
 from .problem import OscillatoryProblem
 
@@ -213,7 +213,7 @@ def _check_memory(problem, batch, save_every) -> None:
     if save_every is None:
         return
     width = _max_samples(batch, int(save_every))
-    need = len(batch) * width * (2 * problem.dim + problem.n_blocks + 3) * 8
+    need = sample_bytes(problem, len(batch) * width)
     if need > MAX_SAMPLE_BYTES:
         raise ValueError(
             f"save_every: {len(batch)} trajectories of up to {width} samples of {problem.dim} coordinates "

@@ -44,6 +44,11 @@ MAX_STEPS = 2**53
 MAX_SAMPLE_BYTES = _sample_memory_limit()
 
 
+def sample_bytes(problem, samples: int) -> int:
+    """Memory of `samples` kept states: q, p, the energies and the step number of each."""
+    return samples * (2 * problem.dim + 4 + problem.n_blocks) * 8
+
+
 def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
               t_end: float | None = None, n_steps: int | None = None, save_every: int = 1,
               form: str = "two-step", track_energies: bool = True,
@@ -105,7 +110,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     q0 = _state(q0, "q0", problem.dim)
     p0 = _state(p0, "p0", problem.dim)
     n_samples = n_steps // save_every + 2
-    if n_samples * (2 * problem.dim + 4 + problem.n_blocks) * 8 > MAX_SAMPLE_BYTES:
+    if sample_bytes(problem, n_samples) > MAX_SAMPLE_BYTES:
         raise ValueError(
             f"save_every: {n_samples} samples of {problem.dim} coordinates would need more than "
             f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
