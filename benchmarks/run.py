@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse
 import sympy as sp
 
 import trigint as ti
@@ -237,6 +238,46 @@ def potential_rows(n: int, count: int, batch_steps: int, repeat: int) -> list[di
     return rows
 
 
+def stiffness_rows(n: int, count: int, batch_steps: int, repeat: int, smoke: bool) -> tuple[list[dict], list[dict]]:
+    """Issue-11 rows: a non-diagonal stiffness matrix, dense (FPU in its original coordinates)
+    and sparse (the Krylov path on a long chain)."""
+    prob, (q0, p0) = fpu()
+    orig = ti.problems.fpu(3, OMEGA, coordinates="original")
+    oq, op = ti.problems.fpu_initial(3, OMEGA, coordinates="original")
+    a, b = interleaved([py_timer(single(prob, q0, p0, n // 4, True), n // 4),
+                        py_timer(single(orig, oq, op, n // 4, True), n // 4)], repeat)
+    rows = [row("FPU m = 3 in original coordinates (stiffness=A), integrate(), energies streamed",
+                "diagonal FPU", a, "stiffness=A", b, 1.5)]
+    Q0, P0 = ti.perturb(q0, p0, np.linspace(0.0, 1e-3, count))
+    t = ti.problems.fpu_original_basis(3)
+    OQ, OP = Q0 @ t.T, P0 @ t.T
+
+    def batch(p, x, y):
+        return lambda: ti.ensemble(p, "B", x, y, h=H, n_steps=batch_steps, threads=1, chunk_size=count,
+                                   progress=False)
+
+    a, b = interleaved([py_timer(batch(prob, Q0, P0), count * batch_steps),
+                        py_timer(batch(orig, OQ, OP), count * batch_steps)], repeat)
+    rows.append(row(f"FPU m = 3 in original coordinates, {count} trajectories, 1 thread", "diagonal FPU", a,
+                    "stiffness=A", b, 1.5))
+    size, steps = (10_000, 3) if smoke else (100_000, 20)
+    stiff = scipy.sparse.diags([-np.ones(size - 1), 2 * np.ones(size), -np.ones(size - 1)], [-1, 0, 1]) * 100.0
+    pot = (ti.ChainPotential(size).add("y**4 / 4", "y", pairs=[(i, i + 1) for i in range(size - 1)])
+           .add("1 - cos(y)", "y", sites=range(size)))
+    chain = ti.OscillatoryProblem(stiffness=stiff.tocsr(), potential=pot, path="krylov")
+    x = np.linspace(0.0, 1.0, size)
+    start = time.perf_counter()
+    sol = ti.integrate(chain, "B", 0.1 * np.sin(3 * np.pi * x), np.sin(2 * np.pi * x), h=0.05, n_steps=steps,
+                       progress=False)
+    seconds = time.perf_counter() - start
+    info = sol.info
+    krylov = [dict(case=f"Krylov path: chain of n = {size} (A = 100 tridiag(−1, 2, −1), h√λ_max ≈ 1), method B, "
+                        f"{steps} steps, tolerance {info['tolerance']:g}",
+                   per_step=seconds / steps * 1e3, per_iteration=seconds / info["iterations"] * 1e6,
+                   iterations=info["iterations_per_product"], products=info["products"] / steps)]
+    return rows, krylov
+
+
 def other_rows(smoke: bool) -> list[dict]:
     prob, (q0, p0) = fpu()
     centres = np.pi * np.array([1 / 4, 1 / 3, 1 / 2, 2 / 3, 3 / 4])
@@ -250,7 +291,7 @@ def other_rows(smoke: bool) -> list[dict]:
                       f"{os.cpu_count()} threads", seconds=seconds, per=seconds * 1e9 / steps)]
 
 
-def write_report(limits, potentials, others, path: Path) -> None:
+def write_report(limits, potentials, stiffness, krylov, others, path: Path) -> None:
     def table(rows):
         out = ["| workload | baseline | ns | trigint | ns | ratio | target |", "|---|---|---:|---|---:|---:|---:|"]
         for r in rows:
@@ -284,6 +325,15 @@ def write_report(limits, potentials, others, path: Path) -> None:
         "## The user's own potentials",
         "",
         *table(potentials),
+        "",
+        "## A non-diagonal stiffness matrix",
+        "",
+        *table(stiffness),
+        "",
+        "| Krylov path | ms per step | µs per Lanczos iteration | iterations per product | products per step |",
+        "|---|---:|---:|---:|---:|",
+        *[f"| {r['case']} | {r['per_step']:.1f} | {r['per_iteration']:.1f} | {r['iterations']:.1f} | "
+          f"{r['products']:.1f} |" for r in krylov],
         "",
         "## Whole jobs",
         "",
@@ -323,11 +373,12 @@ def main(argv=None) -> int:
     single(*fpu()[:1], *fpu()[1], 10, True)()  # load what the first call loads lazily
     limits = limit_rows(n, count, batch_steps, repeat)
     potentials = potential_rows(n, count, batch_steps, repeat)
+    stiffness, krylov = stiffness_rows(n, count, batch_steps, repeat, args.smoke)
     others = other_rows(args.smoke)
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
-    write_report(limits, potentials, others, out)
-    plot(limits + potentials, out.with_suffix(".png"))
+    write_report(limits, potentials, stiffness, krylov, others, out)
+    plot(limits + potentials + stiffness, out.with_suffix(".png"))
     print(out.read_text())
     print(f"wrote {out}")
     return 0

@@ -249,7 +249,7 @@ def test_bad_expressions(args, kwargs, error, match):
 
 def test_dimension_mismatch_and_bad_chains():
     pot = ti.ExpressionPotential("x**2 + y**2", ["x", "y"])
-    with pytest.raises(ValueError, match=r"acts on 2 coordinates, but the problem \(omega, q\) has 3"):
+    with pytest.raises(ValueError, match=r"acts on 2 coordinates, but the problem \(omega or stiffness, q\) has 3"):
         ti.OscillatoryProblem([0.0, 1.0, 2.0], pot)
     with pytest.raises(ValueError, match="index 5 is outside"):
         ti.ChainPotential(3).add("y**2", "y", pairs=[(0, 5)])

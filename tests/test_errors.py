@@ -64,7 +64,7 @@ def test_bad_frequencies(omega, match):
 
 
 def test_potential_dimension_must_match():
-    with pytest.raises(ValueError, match=r"acts on 4 coordinates, but the problem \(omega, q\) has 3"):
+    with pytest.raises(ValueError, match=r"acts on 4 coordinates, but the problem \(omega or stiffness, q\) has 3"):
         ti.OscillatoryProblem([0.0, 1.0, 1.0], ti.FPUPotential(2))
     with pytest.raises(TypeError, match="potential"):
         ti.OscillatoryProblem([0.0, 1.0], lambda q: q)

@@ -130,6 +130,10 @@ def test_problem_and_potentials(data):
     kwargs, key = one_bad_argument(dict(omega=[0.0, 50.0], potential=ti.PolynomialPotential([1.0], [[4, 0]]),
                                         blocks=None), data)
     outcome(lambda: ti.OscillatoryProblem(**kwargs), (key,))
+    kwargs, key = one_bad_argument(dict(stiffness=[[200.0, -100.0], [-100.0, 200.0]],
+                                        potential=ti.PolynomialPotential([1.0], [[4, 0]]), slow_tolerance=1e-10,
+                                        equal_tolerance=1e-10, path="auto", krylov_tolerance=1e-12), data)
+    outcome(lambda: ti.OscillatoryProblem(**kwargs), (key,))
     outcome(lambda: ti.FPUPotential(data.draw(garbage)), ("m",))
     kwargs, key = one_bad_argument(dict(coefficients=[1.0, 2.0], exponents=[[4, 0], [1, 1]]), data)
     outcome(lambda: ti.PolynomialPotential(**kwargs), (key,))

@@ -129,31 +129,36 @@ def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> di
     return {k: v.reshape(d, n) for k, v in rows.items()}
 
 
-def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, tuple | None]:
+def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, _native.CoreLayout | None]:
     """What every chunk of a problem's batch needs: the potential's and the layout's
-    descriptions in the core's coordinate order, and the permutation (None if identity)."""
+    descriptions in the core's coordinates, and the layout that maps states to and from them
+    (None if the core's coordinates are the user's)."""
     lay = _native.core_layout(problem)
-    order = None if lay.identity else (lay.perm, lay.inverse)
+    order = None if lay.identity and lay.basis is None else lay
     return _native.potential_spec(problem.potential, lay), lay.spec, order
 
 
-def run_chunk(potential_spec: dict, layout_spec: dict, order: tuple | None, rows: dict,
+def run_chunk(potential_spec: dict, layout_spec: dict, order: _native.CoreLayout | None, rows: dict,
               save_every: int | None, track: bool, threads: int | None = None,
               form: str = "two-step") -> dict:
     """Runs one chunk of trajectories in the core. Module-level and free of local state, so
-    that it can be sent to executors and Dask workers. States come back in the user's order."""
+    that it can be sent to executors and Dask workers. States come back in the user's
+    coordinates."""
 
-    def to_core(x):
-        return np.ascontiguousarray(x if order is None else x[..., order[0]])
+    def state_to_core(x):
+        return np.ascontiguousarray(x if order is None else order.to_core(x))
 
-    methods = {k: to_core(np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
+    def rows_to_core(x):
+        return np.ascontiguousarray(x if order is None else order.rows_to_core(x))
+
+    methods = {k: rows_to_core(np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
     methods["h"] = np.ascontiguousarray(rows["h"], dtype=float)
     out = _native.integrate_batch(
-        potential_spec, layout_spec, methods, to_core(rows["q0"]), to_core(rows["p0"]),
+        potential_spec, layout_spec, methods, state_to_core(rows["q0"]), state_to_core(rows["p0"]),
         rows["n_steps"], save_every, form, track, threads,
     )
     if order is not None and "samples" in out:
         for s in out["samples"]:
-            s["q"] = np.ascontiguousarray(s["q"][..., order[1]])
-            s["p"] = np.ascontiguousarray(s["p"][..., order[1]])
+            s["q"] = order.to_user(s["q"])
+            s["p"] = order.to_user(s["p"])
     return out

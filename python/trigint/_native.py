@@ -1,9 +1,11 @@
 """The one importer of the compiled core: packs problems, methods and potentials into the typed
 dictionaries `trigint._core` takes, and unpacks its results.
 
-The core runs in its own coordinate order: slow coordinates first, then each oscillatory block
-contiguous (stable within a block). Users never see that order: states are permuted on the way
-in and back on the way out, and potentials are given their inputs in the user's order.
+The core runs in its own coordinates: slow coordinates first, then each oscillatory block
+contiguous (stable within a block). For a diagonal Ω these are the user's coordinates permuted;
+for a stiffness matrix A = QΛQᵀ they are the modal coordinates x = Qᵀq. Users never see them:
+states are transformed on the way in and back on the way out, and potentials are given their
+inputs in the user's coordinates (the permutation or Q composed into their input maps).
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ METHOD_ROWS = ("one_minus_cos", "chi", "psi", "phi", "psi_over_chi", "sin2_over_
 
 @dataclass(frozen=True)
 class CoreLayout:
-    """A problem's arrangement in the core's order, with the permutation to and from it."""
+    """A problem's arrangement in the core's coordinates, with the map to and from them: a
+    permutation (diagonal Ω) or the orthogonal modal basis Q (stiffness matrix)."""
 
     spec: dict
     #: core coordinate k is user coordinate perm[k]
@@ -29,17 +32,44 @@ class CoreLayout:
     #: user coordinate i is core coordinate inverse[i]
     inverse: np.ndarray
     identity: bool
+    #: Q, with q = Q x (None for a diagonal Ω)
+    basis: np.ndarray | None = None
 
     def to_core(self, x: np.ndarray) -> np.ndarray:
-        """User order → core order along the last axis."""
+        """User coordinates → core coordinates along the last axis."""
+        if self.basis is not None:
+            return change_basis(x, self.basis)
         return x if self.identity else np.ascontiguousarray(x[..., self.perm])
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
-        """Core order → user order along the last axis."""
+        """Core coordinates → user coordinates along the last axis."""
+        if self.basis is not None:
+            return change_basis(x, np.ascontiguousarray(self.basis.T))
         return x if self.identity else np.ascontiguousarray(x[..., self.inverse])
+
+    def rows_to_core(self, x: np.ndarray) -> np.ndarray:
+        """Per-coordinate numbers (a method's rows) in the core's order: the modal
+        coordinates already are."""
+        return np.ascontiguousarray(x) if self.basis is not None else self.to_core(x)
+
+
+def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """x · m along the last axis, each row summed in a fixed order (the core's), so that a
+    state has the same bits alone and in a batch of any size."""
+    x = np.asarray(x, dtype=float)
+    flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
+    return _core.change_basis(flat, np.ascontiguousarray(m, dtype=float)).reshape(*x.shape[:-1], m.shape[1])
 
 
 def core_layout(problem) -> CoreLayout:
+    if problem.basis is not None:
+        # the modal coordinates come ordered: slow first, then block by block
+        blocks = np.asarray(problem.blocks)
+        n_slow = int(np.count_nonzero(blocks == 0))
+        ends = [int(np.flatnonzero(blocks == j)[-1]) + 1 for j in range(1, problem.n_blocks + 1)]
+        spec = {"omega2": np.ascontiguousarray(problem.omega**2), "n_slow": n_slow, "block_ends": ends}
+        ident = np.arange(blocks.size)
+        return CoreLayout(spec, ident, ident, True, problem.basis)
     blocks = np.asarray(problem.blocks)
     perm = np.argsort(blocks, kind="stable")
     inverse = np.empty_like(perm)
@@ -72,21 +102,64 @@ def method_rows(co, fast: np.ndarray) -> dict:
 
 def method_spec(co, lay: CoreLayout, fast: np.ndarray) -> dict:
     rows = method_rows(co, fast)
-    spec = {k: np.ascontiguousarray(lay.to_core(v)) for k, v in rows.items()}
+    spec = {k: lay.rows_to_core(v) for k, v in rows.items()}
     spec["h"] = float(co.h)
     return spec
 
 
 def potential_spec(potential, lay: CoreLayout) -> dict:
-    """The potential's description, with its inputs taken from the core's coordinate order."""
+    """The potential's description, with its inputs taken from the core's coordinates."""
     spec = potential._spec(lay.perm.size)
+    if lay.basis is not None:
+        return _modal_spec(spec, lay.basis, potential)
     return spec if lay.identity else _permute_spec(spec, lay, potential)
+
+
+def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
+    """U(Qx) for U(q): Q composed into the potential's input maps (a program's, each chain
+    term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U."""
+    kind = spec["kind"]
+    if kind in ("fpu", "program"):
+        return {**spec, "map": _compose(spec.get("map"), spec["m"] * 2 if kind == "fpu" else spec["n"], basis)}
+    if kind == "chain":
+        return {**spec, "terms": [{**t, "map": _compose(t["map"], t["map"]["rows"], basis)} for t in spec["terms"]]}
+    if kind == "python":
+        value, gradient = spec["value"], spec["gradient"]
+
+        def value_modal(x):
+            return value(x @ basis.T)
+
+        def gradient_modal(x):
+            return np.asarray(gradient(x @ basis.T), dtype=float) @ basis
+
+        return {**spec, "value": value_modal, "gradient": gradient_modal}
+    raise ValueError(f"unknown potential kind {kind!r}")
+
+
+def _compose(m: dict | None, rows: int, basis: np.ndarray) -> dict:
+    """The sparse map M Q (M the identity when None) in the core's CSR form. Entries below
+    1e-15 of their row's largest are the product's rounding noise (exact zeros of a sparse Q
+    combined with ±1/√2 entries) and are dropped."""
+    from scipy.sparse import csr_matrix
+
+    n = basis.shape[0]
+    left = (csr_matrix(np.eye(rows, n)) if m is None else
+            csr_matrix((np.asarray(m["vals"], dtype=float), m["idx"], m["ptr"]), shape=(m["rows"], m["cols"])))
+    dense = np.asarray(left @ basis)
+    big = np.max(np.abs(dense), axis=1, keepdims=True)
+    dense[np.abs(dense) <= 1e-15 * big] = 0.0
+    out = csr_matrix(dense)
+    out.sort_indices()
+    return {"rows": int(out.shape[0]), "cols": n, "ptr": [int(x) for x in out.indptr],
+            "idx": [int(x) for x in out.indices], "vals": np.asarray(out.data, dtype=float)}
 
 
 def _permute_spec(spec: dict, lay: CoreLayout, potential) -> dict:
     kind = spec["kind"]
     inv = lay.inverse
     if kind == "fpu":
+        if spec.get("map") is not None:
+            return {**spec, "map": _permute_map(spec["map"], inv)}
         return _permute_spec(potential._program_spec(), lay, potential)
     if kind == "program":
         out = dict(spec)

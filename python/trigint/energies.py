@@ -47,6 +47,9 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     (½|p₀|² + U), ``oscillatory_1`` … (the I_j) and, when `method` and `h` are given,
     ``modified_oscillatory`` (H*_ω or H*_ω̃); over a ``sample`` dimension for 2-d input.
 
+    For a stiffness matrix A the block energies are ½(|P_j p|² + ω_j²|P_j q|²) with the
+    spectral projectors P_j of A, and H_slow = ½|P₀p|² + U(q).
+
     Examples
     --------
     >>> import trigint as ti
@@ -67,17 +70,33 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         )
     if (method is None) != (h is None):
         raise ValueError("method, h: give both (for the modified oscillatory energy) or neither")
+    if problem.path == "krylov":
+        if method is not None:
+            raise ValueError("method, h: the modified oscillatory energy needs the frequencies, which the Krylov "
+                             "path does not compute; leave them out")
+        from ._krylov import energies as krylov_energies
+
+        rows = np.array([krylov_energies(problem.stiffness, problem.potential, a, b)
+                         for a, b in zip(np.atleast_2d(q), np.atleast_2d(p), strict=True)])
+        data = {"total": rows[:, 0], "oscillatory": rows[:, 1], "slow": rows[:, 2], "oscillatory_1": rows[:, 1]}
+        if q.ndim == 1:
+            return xr.Dataset({k: ((), v[0]) for k, v in data.items()})
+        return xr.Dataset({k: ("sample", v) for k, v in data.items()})
     if method is not None:
         from .methods import resolve_method
 
         method = resolve_method(method)
     coefficients = method.coefficients(h, problem.omega) if method is not None else None
     w = layout(problem, coefficients)
+    q_user = np.atleast_2d(q)
     q2, p2 = np.atleast_2d(q), np.atleast_2d(p)
+    if problem.basis is not None:
+        # the quadratic forms in the modal coordinates x = Qᵀq: |P_j q|² = |x_j|²
+        q2, p2 = q2 @ problem.basis, p2 @ problem.basis
     per_coordinate = 0.5 * (p2**2 + w["omega2"] * q2**2)
     blocks = [per_coordinate[:, w["block"] == j].sum(axis=1) for j in range(w["n_blocks"] + 1)]
     oscillatory = np.sum(blocks[1:], axis=0) if w["n_blocks"] else np.zeros(q2.shape[0])
-    slow = blocks[0] + problem.potential.value(q2)
+    slow = blocks[0] + problem.potential.value(q_user)
     data = dict(total=oscillatory + slow, oscillatory=oscillatory, slow=slow)
     if coefficients is not None:
         data["modified_oscillatory"] = (0.5 * (w["modified_p"] * p2**2 + w["modified_q"] * q2**2)).sum(axis=1)

@@ -85,6 +85,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    problem.require_spectrum("ensemble")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
     if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
@@ -165,6 +166,7 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    problem.require_spectrum("scan")
     h_omega = _check.real_array(h_omega, "h_omega", positive=True).reshape(-1)
     ref = float(np.max(problem.omega)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:
@@ -301,6 +303,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
                        "energies": ((count, width, c), "float64", np.nan)})
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
+        **({} if problem.stiffness is None else {"stiffness": problem.stiffness}),
         "method": repr(method), "coefficients": np.stack([getattr(batch, k) for k in METHOD_ROWS]),
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track),

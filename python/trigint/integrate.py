@@ -79,6 +79,10 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         A tqdm bar over steps (default: for runs of 10⁷ steps or more), or a callable
         ``progress(steps_done)`` that may return False to stop.
 
+    A problem with a large sparse stiffness matrix (``path="krylov"``) is stepped in the
+    one-step form (the same method; the two-step form's momentum divides by χ(h√A)) with each
+    matrix function applied by the Lanczos method; ``Solution.info`` reports the iterations.
+
     Returns
     -------
     Solution
@@ -116,6 +120,8 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
             f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
             "increase save_every"
         )
+    if problem.path == "krylov":
+        return _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track_energies, progress)
     co = method.coefficients(h, problem.omega, form=form)
     python_potential = isinstance(problem.potential, PythonPotential)
     every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
@@ -128,6 +134,20 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
         raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
     return _solution(problem, method, h, n_steps, out, co)
+
+
+def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, progress) -> Solution:
+    """A stiffness matrix on the Krylov path: the one-step form with matrix functions by Lanczos
+    (see :mod:`trigint._krylov`), in Python; energies at the samples, and every step if tracked."""
+    from . import _krylov
+
+    callback, close = _progress(progress, n_steps, True)
+    try:
+        out = _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback,
+                                problem.krylov_tolerance)
+    finally:
+        close()
+    return _solution(problem, method, h, n_steps, out)
 
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
@@ -157,6 +177,7 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
         initial_energies=dict(zip(names, out["initial_energies"].tolist(), strict=True)),
         h=h, n_steps=int(out["steps_done"]), n_steps_requested=n_steps,
         status=out["status"], message=out["message"], method=method, problem=problem,
+        info=out.get("krylov") or {},
     )
 
 

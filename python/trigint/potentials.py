@@ -45,7 +45,7 @@ class Potential(ABC):
         if self.dim is not None and self.dim != n:
             raise ValueError(
                 f"potential: {type(self).__name__} acts on {self.dim} coordinates, "
-                f"but the problem (omega, q) has {n}"
+                f"but the problem (omega or stiffness, q) has {n}"
             )
 
     def _evaluate(self, q) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -92,27 +92,54 @@ class FPUPotential(Potential):
 
     Examples
     --------
+    With ``coordinates="original"`` the same springs as a function of the particles'
+    positions q₁ … q₂ₘ: U(q) = Σᵢ₌₀^m (q₂ᵢ₊₁ − q₂ᵢ)⁴ with q₀ = q₂ₘ₊₁ = 0, evaluated as U(x(q))
+    through the orthogonal map x = Tᵀq of :func:`trigint.problems.fpu_original_basis`.
+
+    Examples
+    --------
     >>> import trigint as ti
     >>> round(ti.FPUPotential(3).value([1, 0, 0, 0.02, 0, 0]), 8)
     0.50120008
+    >>> round(ti.FPUPotential(1, coordinates="original").value([0.0, 0.5]), 12)  # 0.5**4
+    0.0625
     """
 
-    def __init__(self, m: int = 3):
+    def __init__(self, m: int = 3, coordinates: str = "diagonal"):
         if isinstance(m, bool) or not isinstance(m, int | np.integer) or m < 1:
             raise ValueError(f"m: the number of stiff springs must be an integer >= 1, got {m!r}")
+        if not isinstance(coordinates, str) or coordinates not in ("diagonal", "original"):
+            raise ValueError(f"coordinates: expected 'diagonal' or 'original', got {coordinates!r}")
         self.m = int(m)
         self.dim = 2 * self.m
+        self.coordinates = coordinates
+
+    def _map(self) -> dict | None:
+        """x = Tᵀq as the core's sparse map (None in the diagonal coordinates)."""
+        if self.coordinates == "diagonal":
+            return None
+        from .problems import fpu_original_basis
+
+        return _csr_map(fpu_original_basis(self.m).T, self.dim)
 
     def _spec(self, n: int) -> dict:
-        return {"kind": "fpu", "m": self.m}
+        return {"kind": "fpu", "m": self.m, "map": self._map()}
 
     def _program_spec(self) -> dict:
         """The same U as a compiled program (for coordinate orders the native code does not
         know)."""
-        return {"kind": "program", **fpu_tape(self.m), "map": None}
+        return {"kind": "program", **fpu_tape(self.m), "map": self._map()}
 
     def __repr__(self) -> str:
-        return f"FPUPotential(m={self.m})"
+        extra = ", coordinates='original'" if self.coordinates == "original" else ""
+        return f"FPUPotential(m={self.m}{extra})"
+
+
+def _csr_map(dense: np.ndarray, n: int) -> dict:
+    rows, cols = np.nonzero(dense)
+    ptr = np.searchsorted(rows, np.arange(dense.shape[0] + 1))
+    return {"rows": int(dense.shape[0]), "cols": n, "ptr": [int(x) for x in ptr],
+            "idx": [int(x) for x in cols], "vals": np.ascontiguousarray(dense[rows, cols], dtype=float)}
 
 
 def fpu_linear_forms(m: int) -> list[list[tuple[int, float]]]:

@@ -1,40 +1,104 @@
-"""The problem class q'' + Ω²q = −∇U(q) with per-coordinate frequencies (paper §2.1)."""
+"""The problem class q'' + Ω²q = −∇U(q) (paper §2.1): Ω diagonal, or Ω² = A any symmetric
+positive semi-definite stiffness matrix."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import _check
+from . import _check, _stiffness
+from ._stiffness import Frequencies
 from .potentials import Potential
 
 
 class OscillatoryProblem:
-    """q'' + Ω²q = g(q) = −∇U(q), Ω = diag(ω₁ … ωₙ), ωᵢ ≥ 0 (ωᵢ = 0: a slow coordinate).
+    """q'' + Ω²q = g(q) = −∇U(q) with Ω = diag(ω₁ … ωₙ), or q'' + Aq = g(q) with A symmetric
+    positive semi-definite.
 
-    Coordinates are grouped in blocks: block 0 holds the slow coordinates and blocks
-    1 … ℓ the coordinates of each distinct non-zero frequency, in order of first appearance
-    (paper §2.1, q = (q₀, q₁, …, q_ℓ)). `blocks=` overrides the grouping.
+    **Diagonal** (``omega=``): ωᵢ ≥ 0 is the frequency of coordinate i (0: slow). Coordinates
+    are grouped in blocks: block 0 holds the slow coordinates and blocks 1 … ℓ the coordinates
+    of each distinct non-zero frequency, in order of first appearance (paper §2.1,
+    q = (q₀, q₁, …, q_ℓ)). `blocks=` overrides the grouping.
+
+    **Stiffness matrix** (``stiffness=A``): A = QΛQᵀ is diagonalized once; the frequencies are
+    ω_j = √λ_j, with eigenvalues within `slow_tolerance` (relative to the largest) of 0 slow and
+    eigenvalues within `equal_tolerance` (relative) of each other one block of equal frequency,
+    in increasing order. Every method steps the modal coordinates x = Qᵀq, which is the same
+    recursion with its filters as matrix functions of h√A; everything the user gives and gets
+    (q0, p0, samples, energies, the potential's argument) stays in the coordinates of A.
+    `omega`, `blocks` and `dim` then describe the modal coordinates, `basis` is Q.
 
     Parameters
     ----------
-    omega : array of float, shape (n,)
-        The frequency of each coordinate.
+    omega : array of float, shape (n,), optional
+        The frequency of each coordinate. Give this or `stiffness`.
     potential : Potential
         U(q), acting on n coordinates.
+    stiffness : array of shape (n, n) or scipy.sparse matrix, optional
+        A, symmetric positive semi-definite, n up to 5000.
     blocks : array of int, shape (n,), optional
-        Block label of each coordinate: 0 for every slow coordinate (and only those),
-        1 … ℓ for the oscillatory ones, each label used.
+        (Diagonal only) block label of each coordinate: 0 for every slow coordinate (and only
+        those), 1 … ℓ for the oscillatory ones, each label used.
+    slow_tolerance, equal_tolerance : float
+        (Stiffness only) the relative tolerances above, default 1e-10 each.
 
     Examples
     --------
-    >>> import trigint as ti
+    >>> import numpy as np, trigint as ti
     >>> prob = ti.OscillatoryProblem([0.0, 50.0, 50.0 * 2**0.5],
     ...                              ti.PolynomialPotential([0.01], [[0, 1, 1]]))
     >>> prob.block_frequencies
     array([50.        , 70.71067812])
+
+    Two particles joined by a stiff spring (A = ω²/2 [[1, −1], [−1, 1]]), held by soft springs:
+
+    >>> A = 1250.0 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    >>> U = ti.ExpressionPotential("(q0**2 + q1**2) / 2", ["q0", "q1"])
+    >>> ti.OscillatoryProblem(stiffness=A, potential=U).frequencies
+    Frequencies(slow=1, [50 (x1)], max_relative_change=0.00e+00, largest_zeroed=0.00e+00)
     """
 
-    def __init__(self, omega, potential: Potential, *, blocks=None):
+    def __init__(self, omega=None, potential: Potential | None = None, *, stiffness=None, blocks=None,
+                 slow_tolerance: float = _stiffness.SLOW_TOLERANCE,
+                 equal_tolerance: float = _stiffness.EQUAL_TOLERANCE, path: str = "auto",
+                 krylov_tolerance: float = 1e-12):
+        if (omega is None) == (stiffness is None):
+            raise ValueError("omega, stiffness: give exactly one of them (the frequencies of a diagonal "
+                             "problem, or a symmetric positive semi-definite stiffness matrix A)")
+        if potential is None:
+            raise TypeError("potential: a trigint potential U(q) is required")
+        self.stiffness = None
+        self.basis = None
+        self.frequencies_found = None
+        self.path = "diagonal"
+        if stiffness is not None:
+            if blocks is not None:
+                raise ValueError("blocks: not allowed with stiffness=; the blocks are A's eigenspaces")
+            if not isinstance(path, str) or path not in ("auto", "dense", "krylov"):
+                raise ValueError(f"path: expected 'auto', 'dense' or 'krylov', got {path!r}")
+            slow_tolerance = _stiffness.check_tolerance(slow_tolerance, "slow_tolerance")
+            equal_tolerance = _stiffness.check_tolerance(equal_tolerance, "equal_tolerance")
+            krylov_tolerance = _stiffness.check_tolerance(krylov_tolerance, "krylov_tolerance")
+            if krylov_tolerance < 1e-15:
+                raise ValueError(f"krylov_tolerance: at least 1e-15 (rounding), got {krylov_tolerance!r}")
+            krylov = path == "krylov" or (path == "auto" and _stiffness.is_sparse(stiffness)
+                                          and stiffness.shape[0] > _stiffness.DENSE_MAX)
+            if krylov:
+                self.stiffness = _stiffness.sparse_stiffness(stiffness)
+                _check_potential(potential, self.stiffness.shape[0])
+                self.krylov_tolerance = krylov_tolerance
+                self.path, self.potential, self._n = "krylov", potential, self.stiffness.shape[0]
+                self.omega = self.blocks = None
+                return
+            self.path = "dense"
+            a = _stiffness.dense_stiffness(stiffness)
+            _check_potential(potential, a.shape[0])
+            modal = _stiffness.diagonalize(a, slow_tolerance, equal_tolerance)
+            a.setflags(write=False)
+            self.stiffness, self.basis = a, modal.basis
+            self.omega, self.blocks, self.potential = modal.omega, modal.blocks, potential
+            self.frequencies_found = modal.frequencies
+            self._n = self.omega.size
+            return
         omega = _check.real_array(omega, "omega", ndim=None, finite=False, nonempty=False)
         if omega.ndim != 1 or omega.size == 0:
             raise ValueError(f"omega: expected a 1-d array of n >= 1 frequencies, got shape {omega.shape}")
@@ -48,13 +112,9 @@ class OscillatoryProblem:
         if np.any(omega < 0):
             bad = int(np.flatnonzero(omega < 0)[0])
             raise ValueError(f"omega: frequencies must be >= 0; omega[{bad}] = {omega[bad]}")
-        if not isinstance(potential, Potential):
-            raise TypeError(
-                "potential: expected a trigint potential (FPUPotential, PolynomialPotential, "
-                f"PythonPotential), got {type(potential).__name__}"
-            )
-        potential.check_dim(omega.size)
+        _check_potential(potential, omega.size)
         self.omega = omega
+        self._n = omega.size
         self.omega.setflags(write=False)
         self.potential = potential
         self.blocks = _check_blocks(blocks, omega) if blocks is not None else _group(omega)
@@ -63,29 +123,66 @@ class OscillatoryProblem:
     @property
     def dim(self) -> int:
         """Number of coordinates n."""
-        return self.omega.size
+        return self._n
+
+    def require_spectrum(self, what: str) -> None:
+        """Raises for a problem on the Krylov path, whose eigenvectors are never formed."""
+        if self.path == "krylov":
+            raise ValueError(f"{what}: not available for a stiffness matrix on the Krylov path (n = {self.dim}), "
+                             "whose eigenvalues and eigenvectors are never computed; use trigint.integrate, "
+                             "or path='dense' for n up to 5000")
+
+    @property
+    def frequencies(self) -> Frequencies:
+        """The distinct non-zero frequencies with their multiplicities (and, for a stiffness
+        matrix, the largest relative change that grouping eigenvalues made)."""
+        self.require_spectrum("frequencies")
+        if self.frequencies_found is not None:
+            return self.frequencies_found
+        counts = np.array([np.count_nonzero(self.blocks == j) for j in range(1, self.n_blocks + 1)], dtype=np.int64)
+        return Frequencies(self.block_frequencies, counts, int(np.count_nonzero(self.blocks == 0)))
 
     @property
     def n_blocks(self) -> int:
-        """ℓ, the number of oscillatory blocks."""
-        return int(self.blocks.max(initial=0))
+        """ℓ, the number of oscillatory blocks (1 on the Krylov path, where H_ω is one sum)."""
+        return 1 if self.blocks is None else int(self.blocks.max(initial=0))
 
     @property
     def block_frequencies(self) -> np.ndarray:
         """The frequency of each block 1 … ℓ (the first coordinate's, if a block mixes them)."""
+        self.require_spectrum("block_frequencies")
         return np.array([self.omega[np.flatnonzero(self.blocks == j)[0]] for j in range(1, self.n_blocks + 1)])
 
     @property
     def epsilon(self) -> float:
         """ε = 1 / min_j ω_j over the non-zero frequencies (inf if there are none)."""
+        self.require_spectrum("epsilon")
         fast = self.omega[self.omega > 0]
         return float(1.0 / fast.min()) if fast.size else float("inf")
 
     def __repr__(self) -> str:
+        if self.path == "krylov":
+            return (f"OscillatoryProblem(n={self.dim}, sparse stiffness matrix with {self.stiffness.nnz} entries, "
+                    f"Krylov path (tolerance {self.krylov_tolerance:g}), potential={self.potential!r})")
+        if self.stiffness is not None:
+            f = self.frequencies
+            found = ", ".join(f"{w:.10g} (x{k})" for w, k in zip(f.values, f.multiplicities, strict=True))
+            return (f"OscillatoryProblem(n={self.dim}, stiffness matrix: {f.slow} slow, frequencies "
+                    f"[{found}], grouping changed them by at most {f.max_relative_change:.1e} (relative), "
+                    f"potential={self.potential!r})")
         return (
             f"OscillatoryProblem(n={self.dim}, blocks={self.n_blocks}, "
             f"frequencies={np.round(self.block_frequencies, 6).tolist()}, potential={self.potential!r})"
         )
+
+
+def _check_potential(potential, n: int) -> None:
+    if not isinstance(potential, Potential):
+        raise TypeError(
+            "potential: expected a trigint potential (FPUPotential, ExpressionPotential, PolynomialPotential, "
+            f"ChainPotential, PythonPotential), got {type(potential).__name__}"
+        )
+    potential.check_dim(n)
 
 
 def _group(omega: np.ndarray) -> np.ndarray:

@@ -22,23 +22,45 @@ def _positive(x, name: str) -> float:
     return x
 
 
-def fpu(m: int = 3, omega: float = 50.0) -> OscillatoryProblem:
-    """FPU chain with m stiff springs of frequency ω, in the variables of GNI §I.5.
+def fpu(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") -> OscillatoryProblem:
+    """FPU chain with m stiff springs of frequency ω [GNI §I.5].
 
-    Coordinates x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ): x₀,ᵢ = (q₂ᵢ + q₂ᵢ₋₁)/√2 are slow, the
-    elongations x₁,ᵢ = (q₂ᵢ − q₂ᵢ₋₁)/√2 oscillate with frequency ω. The potential is native.
+    ``coordinates="diagonal"`` (default): x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ), where
+    x₀,ᵢ = (q₂ᵢ + q₂ᵢ₋₁)/√2 are slow and the elongations x₁,ᵢ = (q₂ᵢ − q₂ᵢ₋₁)/√2 oscillate
+    with frequency ω: Ω = diag(0, …, 0, ω, …, ω).
+
+    ``coordinates="original"``: the positions q₁ … q₂ₘ of the 2m particles, with the
+    Hamiltonian ½|p|² + (ω²/4) Σᵢ (q₂ᵢ − q₂ᵢ₋₁)² + Σᵢ₌₀^m (q₂ᵢ₊₁ − q₂ᵢ)⁴ (q₀ = q₂ₘ₊₁ = 0):
+    the stiff springs give the stiffness matrix A with 2×2 blocks (ω²/2)[[1, −1], [−1, 1]].
+
+    The potential is native in both.
 
     >>> import trigint as ti
     >>> ti.problems.fpu(m=3, omega=50.0).omega.tolist()
     [0.0, 0.0, 0.0, 50.0, 50.0, 50.0]
+    >>> ti.problems.fpu(m=3, omega=50.0, coordinates="original").frequencies.multiplicities.tolist()
+    [3]
     """
-    pot = FPUPotential(m)
+    coordinates = _coordinates(coordinates)
+    pot = FPUPotential(m, coordinates=coordinates)
     omega = _positive(omega, "omega")
+    if coordinates == "original":
+        return OscillatoryProblem(stiffness=fpu_stiffness(pot.m, omega), potential=pot)
     return OscillatoryProblem(np.r_[np.zeros(pot.m), np.full(pot.m, omega)], pot)
 
 
-def fpu_initial(m: int = 3, omega: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
-    """The standard initial data [GNI §I.5]: x₀,₁ = 1, y₀,₁ = 1, x₁,₁ = 1/ω, y₁,₁ = 1, others 0.
+def fpu_stiffness(m: int, omega: float) -> np.ndarray:
+    """A of the FPU chain in the original coordinates q₁ … q₂ₘ: ½qᵀAq = (ω²/4) Σᵢ (q₂ᵢ − q₂ᵢ₋₁)²."""
+    a = np.zeros((2 * m, 2 * m))
+    for i in range(m):
+        a[2 * i:2 * i + 2, 2 * i:2 * i + 2] = 0.5 * omega**2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    return a
+
+
+def fpu_initial(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") -> tuple[np.ndarray, np.ndarray]:
+    """The standard initial data [GNI §I.5]: x₀,₁ = 1, y₀,₁ = 1, x₁,₁ = 1/ω, y₁,₁ = 1, others 0,
+    in the coordinates of :func:`fpu` (``"original"``: q = Tx, p = Ty with q₂ᵢ₋₁ = (x₀,ᵢ − x₁,ᵢ)/√2,
+    q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2).
 
     With ω = 50: H = 2.00120008 and H_ω = 1.
 
@@ -49,12 +71,32 @@ def fpu_initial(m: int = 3, omega: float = 50.0) -> tuple[np.ndarray, np.ndarray
     >>> q0.tolist(), p0.tolist()
     ([1.0, 0.02], [1.0, 1.0])
     """
+    coordinates = _coordinates(coordinates)
     m = FPUPotential(m).m
     omega = _positive(omega, "omega")
     q0, p0 = np.zeros(2 * m), np.zeros(2 * m)
     q0[0], p0[0] = 1.0, 1.0
     q0[m], p0[m] = 1.0 / omega, 1.0
+    if coordinates == "original":
+        t = fpu_original_basis(m)
+        return t @ q0, t @ p0
     return q0, p0
+
+
+def fpu_original_basis(m: int) -> np.ndarray:
+    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal)."""
+    t = np.zeros((2 * m, 2 * m))
+    r = np.sqrt(0.5)
+    for i in range(m):
+        t[2 * i, i], t[2 * i, m + i] = r, -r          # q₂ᵢ₋₁ = (x₀,ᵢ − x₁,ᵢ)/√2
+        t[2 * i + 1, i], t[2 * i + 1, m + i] = r, r   # q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2
+    return t
+
+
+def _coordinates(value) -> str:
+    if not isinstance(value, str) or value not in ("diagonal", "original"):
+        raise ValueError(f"coordinates: expected 'diagonal' or 'original', got {value!r}")
+    return value
 
 
 def experiment1(omega: float = 100.0) -> OscillatoryProblem:

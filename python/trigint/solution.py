@@ -51,6 +51,9 @@ class Solution:
     message: str
     method: object = field(repr=False)
     problem: object = field(repr=False)
+    #: how the run went beyond the energies: on the Krylov path, the Lanczos ``iterations``
+    #: (total), ``products`` (matrix functions applied), ``iterations_per_product``, ``tolerance``
+    info: dict = field(default_factory=dict, repr=False)
 
     @property
     def success(self) -> bool:

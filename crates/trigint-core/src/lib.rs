@@ -10,6 +10,7 @@
 // written with indices they are what the vectorizer handles best (see docs/design.md).
 #![allow(clippy::needless_range_loop)]
 
+pub mod basis;
 pub mod bundle;
 pub mod coefficients;
 pub mod energy;

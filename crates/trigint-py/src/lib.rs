@@ -254,6 +254,59 @@ fn evaluate<'py>(
     Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
 }
 
+/// change_basis(x, m) -> x · m for row-major x (rows, k) and m (k, n), each row summed in a
+/// fixed order: the same bits for a state alone or in a batch
+#[pyfunction]
+fn change_basis<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray2<f64>,
+    m: PyReadonlyArray2<f64>,
+) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let (rows, k) = (x.shape()[0], x.shape()[1]);
+    let (k2, n) = (m.shape()[0], m.shape()[1]);
+    if k != k2 {
+        return Err(PyValueError::new_err(format!(
+            "change_basis: {rows} x {k} times {k2} x {n} does not match"
+        )));
+    }
+    let xs: Vec<f64> = x.as_array().iter().copied().collect();
+    let ms: Vec<f64> = m.as_array().iter().copied().collect();
+    let mut y = vec![0.0; rows * n];
+    py.detach(|| trigint_core::basis::rows_times(&xs, &ms, k, n, &mut y));
+    to_2d(py, y, rows, n)
+}
+
+/// A potential compiled once and evaluated many times (the Krylov path's steps, which run in
+/// Python): `Evaluator(spec).evaluate(x)` is `evaluate(spec, x)` without rebuilding the spec.
+#[pyclass(frozen)]
+struct Evaluator {
+    pot: NativePotential,
+}
+
+#[pymethods]
+impl Evaluator {
+    #[new]
+    fn new(potential: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(Evaluator {
+            pot: NativePotential::from_spec(potential)?,
+        })
+    }
+
+    /// evaluate(x) -> (U at each row of x (m, n), −∇U at each row)
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray2<f64>,
+    ) -> PyResult<ValuesAndForces<'py>> {
+        let (m, n) = (x.shape()[0], x.shape()[1]);
+        let data: Vec<f64> = x.as_array().iter().copied().collect();
+        let pot = &self.pot;
+        let r = py.detach(|| with_potential!(pot, |p| values_and_forces(p, &data, m, n)));
+        let (v, f) = r.map_err(|e| to_py(e, pot))?;
+        Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
+    }
+}
+
 /// instructions(potential) -> number of instructions of a compiled program's force code
 #[pyfunction]
 fn instructions(potential: &Bound<'_, PyDict>) -> PyResult<Option<usize>> {
@@ -271,6 +324,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(change_basis, m)?)?;
+    m.add_class::<Evaluator>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
     Ok(())

@@ -38,7 +38,7 @@ fn value_error(e: CoreError) -> PyErr {
 }
 
 impl NativePotential {
-    /// From `{"kind": "fpu", "m"}`, `{"kind": "program", …tape, "map"?}`,
+    /// From `{"kind": "fpu", "m", "map"?}`, `{"kind": "program", …tape, "map"?}`,
     /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}]}` or
     /// `{"kind": "python", "n", "value", "gradient", "vectorized"}`.
     pub fn from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
@@ -50,7 +50,16 @@ impl NativePotential {
             }
         };
         match kind.as_str() {
-            "fpu" => Ok(Self::Fpu(Fpu::new(item(spec, "m")?).map_err(value_error)?)),
+            "fpu" => {
+                let m = item(spec, "m")?;
+                Ok(Self::Fpu(
+                    match map(spec)? {
+                        Some(map) => Fpu::with_map(m, map),
+                        None => Fpu::new(m),
+                    }
+                    .map_err(value_error)?,
+                ))
+            }
             "program" => Ok(Self::Program(
                 Program::new(&program(spec)?, map(spec)?.as_ref()).map_err(value_error)?,
             )),

@@ -36,7 +36,13 @@ class Violation:
 
 
 def frequencies(omega) -> np.ndarray:
-    """The distinct non-zero frequencies ω_1 … ω_ℓ, in order of first appearance."""
+    """The distinct non-zero frequencies ω_1 … ω_ℓ, in order of first appearance; of an
+    :class:`~trigint.OscillatoryProblem`, its block frequencies (those of its stiffness matrix)."""
+    if hasattr(omega, "block_frequencies") and hasattr(omega, "potential"):
+        w = np.asarray(omega.block_frequencies, dtype=float)
+        if w.size == 0:
+            raise ValueError("omega: the problem has no non-zero frequency")
+        return w
     w = _check.real_array(omega, "omega", ndim=None, finite=False, nonempty=False).reshape(-1)
     if w.size == 0:
         raise ValueError("omega: give at least one frequency")
@@ -257,7 +263,9 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
             tol: float = 1e-10) -> ResonanceReport:
     """The paper's assumptions and non-resonance conditions at step size h (paper §3).
 
-    For the distinct non-zero frequencies ω_j of `omega` (for a modified method: the ω̃_j):
+    For the distinct non-zero frequencies ω_j of `omega` (for a modified method: the ω̃_j);
+    `omega` may be an :class:`~trigint.OscillatoryProblem`, whose frequencies (those of its
+    stiffness matrix, see ``problem.frequencies``) are used:
 
     - κ = min_j |sin(hω_j)| and whether κ ≥ √h (3.2); h/ε with ε = 1/min ω_j;
     - σ(hω_j) = sinc·φ/ψ, Assumption B (one sign, c₁ ≤ |σ| ≤ C₁) and symplecticity;
@@ -329,7 +337,8 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
         notes.append("the theory is asymptotic in h -> 0; for h >= 1 the error sizes are not small")
     eps = 1.0 / float(np.min(w))
     return ResonanceReport(
-        h=h, omega=[float(x) for x in np.asarray(omega, dtype=float).reshape(-1)], method=repr(method),
+        h=h, omega=[float(x) for x in np.asarray(getattr(omega, "omega", omega), dtype=float).reshape(-1)],
+        method=repr(method),
         modified=modified, frequencies=w.tolist(), h_omega=xi.tolist(), epsilon=eps, h_over_epsilon=h / eps,
         kappa=kappa, kappa_ok=bool(kappa >= np.sqrt(h)), sigma=[float(s) for s in sigma], assumption_B=one_sign,
         c1=c1, C1=C1, symplectic=bool(symplectic), N=int(N), N_max=N_max, violations=violations,

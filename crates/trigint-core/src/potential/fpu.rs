@@ -1,6 +1,6 @@
 //! The Fermi–Pasta–Ulam chain with alternating stiff and soft springs, written out in Rust.
 
-use super::Potential;
+use super::{LinearMap, Potential};
 use crate::energy::{at, pairwise, tree};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
@@ -11,9 +11,14 @@ use crate::real::Real;
 /// U(x) = ¼ [ (x₀,₁ − x₁,₁)⁴ + Σᵢ₌₁^{m−1} (x₀,ᵢ₊₁ − x₁,ᵢ₊₁ − x₀,ᵢ − x₁,ᵢ)⁴ + (x₀,ₘ + x₁,ₘ)⁴ ].
 ///
 /// The first m coordinates are slow (ω = 0), the last m carry the stiff frequency.
-#[derive(Debug, Clone, Copy)]
+///
+/// With an input map M (2m × n), the potential is U(M z) of coordinates z: the chain in any
+/// coordinates an orthogonal change of variables puts it in (the original q₁ … q₂ₘ of GNI I.5,
+/// or the eigenvectors of a stiffness matrix), with the force Mᵀ g(M z).
+#[derive(Debug, Clone)]
 pub struct Fpu {
     pub m: usize,
+    pub map: Option<LinearMap>,
 }
 
 /// Chains longer than this go through vectorizable passes over the springs.
@@ -27,7 +32,43 @@ impl Fpu {
                 "the FPU chain needs m >= 1 stiff springs",
             ));
         }
-        Ok(Fpu { m })
+        Ok(Fpu { m, map: None })
+    }
+
+    /// The chain evaluated at x = M z: `map` has 2m rows, one column per coordinate z.
+    pub fn with_map(m: usize, map: LinearMap) -> CoreResult<Self> {
+        let fpu = Self::new(m)?;
+        if map.rows != 2 * m || map.cols == 0 {
+            return Err(CoreError::invalid(
+                "map",
+                format!(
+                    "the FPU chain with m = {m} reads 2m = {} variables; the map has {} rows and {} columns",
+                    2 * m,
+                    map.rows,
+                    map.cols
+                ),
+            ));
+        }
+        Ok(Fpu {
+            map: Some(map),
+            ..fpu
+        })
+    }
+
+    #[inline(always)]
+    fn chain<L: Real>(
+        &self,
+        x: &[L],
+        f: &mut [L],
+        with_value: bool,
+        ws: &mut FpuWorkspace<L>,
+    ) -> L {
+        match (x.len() / 2 > SHORT, with_value) {
+            (false, true) => Self::short::<L, true>(x, f),
+            (false, false) => Self::short::<L, false>(x, f),
+            (true, true) => Self::long::<L, true>(x, f, ws),
+            (true, false) => Self::long::<L, false>(x, f, ws),
+        }
     }
 
     /// g = −∇U into `f`, and U when VALUE. Written out spring by spring (no closures, no
@@ -123,24 +164,29 @@ impl Fpu {
     }
 }
 
-/// Elongations and cubes of the springs of a long chain.
+/// Elongations and cubes of the springs of a long chain; with a map, x = M z and g(x).
 pub struct FpuWorkspace<L> {
     d: Vec<L>,
     d3: Vec<L>,
+    x: Vec<L>,
+    g: Vec<L>,
 }
 
 impl Potential for Fpu {
     type Workspace<L: Real> = FpuWorkspace<L>;
 
     fn dim(&self) -> usize {
-        2 * self.m
+        self.map.as_ref().map_or(2 * self.m, |map| map.cols)
     }
 
     fn workspace<L: Real>(&self) -> FpuWorkspace<L> {
         let springs = if self.m > SHORT { self.m + 1 } else { 0 };
+        let mapped = if self.map.is_some() { 2 * self.m } else { 0 };
         FpuWorkspace {
             d: vec![L::zero(); springs],
             d3: vec![L::zero(); springs],
+            x: vec![L::zero(); mapped],
+            g: vec![L::zero(); mapped],
         }
     }
 
@@ -152,12 +198,16 @@ impl Potential for Fpu {
         with_value: bool,
         ws: &mut FpuWorkspace<L>,
     ) -> CoreResult<L> {
-        Ok(match (x.len() / 2 > SHORT, with_value) {
-            (false, true) => Self::short::<L, true>(x, f),
-            (false, false) => Self::short::<L, false>(x, f),
-            (true, true) => Self::long::<L, true>(x, f, ws),
-            (true, false) => Self::long::<L, false>(x, f, ws),
-        })
+        let Some(map) = &self.map else {
+            return Ok(self.chain(x, f, with_value, ws));
+        };
+        let (mut xs, mut gs) = (std::mem::take(&mut ws.x), std::mem::take(&mut ws.g));
+        map.apply(x, &mut xs);
+        let u = self.chain(&xs, &mut gs, with_value, ws);
+        f.fill(L::zero());
+        map.apply_transpose_add(&gs, f);
+        (ws.x, ws.g) = (xs, gs);
+        Ok(u)
     }
 
     #[inline(always)]
@@ -225,6 +275,51 @@ mod tests {
             assert_eq!(v1.to_bits(), v2.to_bits(), "m = {m}");
             assert_eq!(short, long, "m = {m}");
         }
+    }
+
+    #[test]
+    fn a_map_evaluates_the_chain_at_m_z_with_the_force_m_transpose_g() {
+        // M: a rotation by 30 degrees in the (0, 4) plane of m = 3, and a sign flip of 2.
+        let (c, s) = (0.75f64.sqrt(), 0.5);
+        let mut dense = [[0.0; 6]; 6];
+        for (i, row) in dense.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        (dense[0][0], dense[0][4], dense[4][0], dense[4][4]) = (c, -s, s, c);
+        dense[2][2] = -1.0;
+        let (mut ptr, mut idx, mut vals) = (vec![0], vec![], vec![]);
+        for row in &dense {
+            for (j, &v) in row.iter().enumerate() {
+                if v != 0.0 {
+                    idx.push(j);
+                    vals.push(v);
+                }
+            }
+            ptr.push(idx.len());
+        }
+        let map = LinearMap::from_csr(6, 6, &ptr, &idx, &vals).unwrap();
+        let (plain, mapped) = (Fpu::new(3).unwrap(), Fpu::with_map(3, map).unwrap());
+        let z: Vec<f64> = (0..6).map(|i| 0.4 * (i as f64 + 0.5).cos()).collect();
+        let x: Vec<f64> = (0..6)
+            .map(|i| (0..6).map(|j| dense[i][j] * z[j]).sum())
+            .collect();
+        let (mut gx, mut gz) = (vec![0.0; 6], vec![0.0; 6]);
+        let ux = plain
+            .force(&x, &mut gx, true, &mut plain.workspace())
+            .unwrap();
+        let uz = mapped
+            .force(&z, &mut gz, true, &mut mapped.workspace())
+            .unwrap();
+        assert!((ux - uz).abs() < 1e-15 * ux.abs(), "{ux} vs {uz}");
+        for j in 0..6 {
+            let want: f64 = (0..6).map(|i| dense[i][j] * gx[i]).sum();
+            assert!(
+                (gz[j] - want).abs() < 1e-14,
+                "coordinate {j}: {} vs {want}",
+                gz[j]
+            );
+        }
+        assert!(Fpu::with_map(2, LinearMap::from_csr(6, 6, &ptr, &idx, &vals).unwrap()).is_err());
     }
 
     #[test]
