@@ -14,6 +14,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 
 from . import problems, resonance
 from ._filters import sinc
+from ._stiffness import Frequencies
 from .energies import energies
 from .ensemble import ensemble, perturb, scan
 from .integrate import integrate
@@ -46,6 +47,7 @@ __all__ = [
     "Coefficients",
     "ExpressionPotential",
     "FPUPotential",
+    "Frequencies",
     "Method",
     "ModifiedTrigonometric",
     "OscillatoryProblem",

@@ -36,12 +36,14 @@ def apply_functions(a, v: np.ndarray, functions: Callable[[np.ndarray], dict], n
     beta0 = float(np.linalg.norm(v))
     if beta0 == 0.0 or not np.isfinite(beta0):
         return {k: np.zeros_like(v) if beta0 == 0.0 else np.full_like(v, np.nan) for k in names}, 0
-    basis = [v / beta0]
+    basis = np.empty((16, v.size))  # grows by doubling; rows are the Lanczos vectors
+    basis[0] = v / beta0
     alpha: list[float] = []
     beta: list[float] = []
-    previous = None
+    previous = False
+    w = np.empty_like(v)
     for k in range(MAX_ITERATIONS):
-        w = a @ basis[k]
+        w[:] = a @ basis[k]
         if k > 0:
             w -= beta[k - 1] * basis[k - 1]
         alpha.append(float(basis[k] @ w))
@@ -49,16 +51,19 @@ def apply_functions(a, v: np.ndarray, functions: Callable[[np.ndarray], dict], n
         b = float(np.linalg.norm(w))
         theta, s = eigh_tridiagonal(np.array(alpha), np.array(beta)) if k else (np.array(alpha), np.ones((1, 1)))
         values = functions(np.maximum(theta, 0.0))
-        coeffs = {name: s @ (values[name] * s[0]) for name in names}
-        invariant = b <= 1e-14 * max(abs(alpha[k]), 1.0) * 10
-        converged = all(b * abs(c[-1]) <= tol * max(float(np.linalg.norm(c)), 1e-300) for c in coeffs.values())
+        coeffs = np.array([s @ (values[name] * s[0]) for name in names])
+        invariant = b <= 1e-13 * max(abs(alpha[k]), 1.0)
+        scale = np.maximum(np.linalg.norm(coeffs, axis=1), 1e-300)
+        converged = bool(np.all(b * np.abs(coeffs[:, -1]) <= tol * scale))
         # two agreeing estimates in a row guard against an early lucky small entry
         if invariant or (converged and previous):
-            stacked = np.array(basis)
-            return {name: beta0 * (c @ stacked) for name, c in coeffs.items()}, k + 1
+            products = beta0 * (coeffs @ basis[:k + 1])
+            return dict(zip(names, products, strict=True)), k + 1
         previous = converged
         beta.append(b)
-        basis.append(w / b)
+        if k + 1 == basis.shape[0]:
+            basis = np.concatenate([basis, np.empty_like(basis)])
+        np.divide(w, b, out=basis[k + 1])
     raise KrylovFailure(f"the Lanczos method did not reach the tolerance {tol:g} in {MAX_ITERATIONS} steps "
                         "(h·sqrt(largest eigenvalue) too large for this tolerance; take a smaller h or a "
                         "larger tol)")

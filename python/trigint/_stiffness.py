@@ -46,6 +46,13 @@ class Frequencies:
         value (0 for a diagonal Ω).
     largest_zeroed : float
         The largest |λ| set to 0 as slow (0 for a diagonal Ω).
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> f = ti.problems.fpu(3, 50.0, coordinates="original").frequencies
+    >>> f.slow, f.values.tolist(), f.multiplicities.tolist()
+    (3, [50.0], [3])
     """
 
     values: np.ndarray
@@ -54,10 +61,16 @@ class Frequencies:
     max_relative_change: float = 0.0
     largest_zeroed: float = 0.0
 
+    def listing(self, limit: int = 8) -> str:
+        """'ω (xmultiplicity)' for each block; the first and last few of a long list."""
+        items = [f"{w:.10g} (x{k})" for w, k in zip(self.values, self.multiplicities, strict=True)]
+        if len(items) > limit:
+            items = [*items[:limit - 2], f"... {len(items) - limit + 1} more ...", items[-1]]
+        return ", ".join(items)
+
     def __repr__(self) -> str:
-        rows = ", ".join(f"{w:.10g} (x{k})" for w, k in zip(self.values, self.multiplicities, strict=True))
-        return (f"Frequencies(slow={self.slow}, [{rows}], max_relative_change={self.max_relative_change:.2e}, "
-                f"largest_zeroed={self.largest_zeroed:.2e})")
+        return (f"Frequencies(slow={self.slow}, [{self.listing()}], max_relative_change="
+                f"{self.max_relative_change:.2e}, largest_zeroed={self.largest_zeroed:.2e})")
 
 
 @dataclass(frozen=True)

@@ -166,9 +166,9 @@ class OscillatoryProblem:
                     f"Krylov path (tolerance {self.krylov_tolerance:g}), potential={self.potential!r})")
         if self.stiffness is not None:
             f = self.frequencies
-            found = ", ".join(f"{w:.10g} (x{k})" for w, k in zip(f.values, f.multiplicities, strict=True))
-            return (f"OscillatoryProblem(n={self.dim}, stiffness matrix: {f.slow} slow, frequencies "
-                    f"[{found}], grouping changed them by at most {f.max_relative_change:.1e} (relative), "
+            return (f"OscillatoryProblem(n={self.dim}, stiffness matrix: {f.slow} slow, "
+                    f"{f.values.size} distinct frequenc{'y' if f.values.size == 1 else 'ies'} [{f.listing()}], "
+                    f"grouping changed them by at most {f.max_relative_change:.1e} (relative), "
                     f"potential={self.potential!r})")
         return (
             f"OscillatoryProblem(n={self.dim}, blocks={self.n_blocks}, "
