@@ -331,3 +331,14 @@ def test_the_krylov_path_needs_no_dense_matrix_and_says_what_it_cannot_do():
         ti.ensemble(prob, "B", np.zeros((2, n)), np.zeros((2, n)), h=0.05, n_steps=2)
     with pytest.raises(ValueError, match="not available .* Krylov"):
         ti.resonance.analyze(0.05, prob)
+
+
+def test_the_krylov_path_stops_at_a_blow_up_keeping_the_last_finite_state():
+    n = 50
+    a = (scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) * 100.0).tocsr()
+    pot = ti.ChainPotential(n).add("-exp(3*y)", "y", sites=range(n))
+    prob = ti.OscillatoryProblem(stiffness=a, potential=pot, path="krylov")
+    with pytest.warns(RuntimeWarning, match="not finite at step"):
+        sol = ti.integrate(prob, "B", np.full(n, 1.0), np.zeros(n), h=0.05, n_steps=2000, save_every=100)
+    assert sol.status == "blow-up" and 0 < sol.n_steps < 2000
+    assert sol.steps.tolist() == [0, sol.n_steps] and np.all(np.isfinite(sol.q))

@@ -163,14 +163,15 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
     n = 0
     try:
         while n < n_steps:
-            q, p, g = stepper.step(q, p, g)
+            q_next, p_next, g_next = stepper.step(q, p, g)
+            if not (np.all(np.isfinite(q_next)) and np.all(np.isfinite(p_next))):
+                status = "blow-up"
+                message = (f"the state is not finite at step {n + 1} (t = {(n + 1) * h:g}); kept the samples up "
+                           f"to step {n}, the last finite state")
+                break
+            q, p, g = q_next, p_next, g_next
             n += 1
             keep = n % save_every == 0 or n == n_steps
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
-                status = "blow-up"
-                message = f"the state is not finite at step {n} (t = {n * h:g}); kept the samples before it"
-                n -= 1
-                break
             if track or keep:
                 e = energies(a, potential, q, p)
                 worst = np.maximum(worst, np.abs(e - e0))
@@ -184,7 +185,7 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
                 break
     except KeyboardInterrupt:
         status, message = "interrupted", f"interrupted at step {n}"
-    if steps[-1] != n and status != "blow-up":
+    if steps[-1] != n:
         steps.append(n)
         qs.append(q.copy())
         ps.append(p.copy())
