@@ -176,8 +176,17 @@ def test_symplecticity_with_a_non_diagonal_stiffness(method, symplectic):
         assert defect > 1e-4
 
 
-@pytest.mark.parametrize("method", ["A", "B", "C", "D", "E"])
+OTHER_METHODS = {
+    "imex": ti.IMEX(),
+    "alpha 0.3": ti.AlphaMethod(0.3),
+    "modified, McLachlan-Stern": ti.ModifiedTrigonometric(lambda x: 2 * np.arctan(x / 2), chi="mclachlan-stern"),
+    "custom filters": ti.Trigonometric(psi=lambda x: ti.sinc(x) ** 3, phi=lambda x: ti.sinc(x)),
+}
+
+
+@pytest.mark.parametrize("method", ["A", "B", "C", "D", "E", *OTHER_METHODS])
 def test_fpu_in_original_coordinates_is_the_diagonal_fpu(method):
+    method = OTHER_METHODS.get(method, method)
     m, omega, h = 3, 50.0, 0.02
     diag = ti.integrate(ti.problems.fpu(m, omega), method, *ti.problems.fpu_initial(m, omega),
                         h=h, n_steps=1000, save_every=100)

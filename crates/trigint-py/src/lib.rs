@@ -120,8 +120,9 @@ fn integrate<'py>(
     Ok(d)
 }
 
-/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step.
-type WideLanes = Lanes<64>;
+/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step, so
+/// a bundle as wide as a NumPy call needs to pay for its fixed cost (about 20 µs).
+type WideLanes = Lanes<256>;
 
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
 /// threads=None) -> dict
