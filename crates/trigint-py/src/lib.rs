@@ -120,9 +120,9 @@ fn integrate<'py>(
     Ok(d)
 }
 
-/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step, so
-/// a bundle as wide as a NumPy call needs to pay for its fixed cost (about 20 µs).
-type WideLanes = Lanes<256>;
+/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step (64,
+/// the most a bundle's u64 lane masks hold).
+type WideLanes = Lanes<64>;
 
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
 /// threads=None) -> dict
