@@ -351,3 +351,20 @@ def test_the_krylov_path_stops_at_a_blow_up_keeping_the_last_finite_state():
         sol = ti.integrate(prob, "B", np.full(n, 1.0), np.zeros(n), h=0.05, n_steps=2000, save_every=100)
     assert sol.status == "blow-up" and 0 < sol.n_steps < 2000
     assert sol.steps.tolist() == [0, sol.n_steps] and np.all(np.isfinite(sol.q))
+
+
+def test_the_native_fpu_through_a_map_when_its_coordinates_do_not_diagonalize_a():
+    """A's pairs also coupled to their neighbours: the FPU's own basis no longer diagonalizes A,
+    so Q from eigh is composed into the native FPU's map; the same U as an expression agrees."""
+    m, omega = 2, 30.0
+    a = ti.problems.fpu_stiffness(m, omega) + 5.0 * (2 * np.eye(4) - np.eye(4, k=1) - np.eye(4, k=-1))
+    q = sp.symbols("q0:4")
+    expr = ti.ExpressionPotential(q[0] ** 4 + (q[2] - q[1]) ** 4 + q[3] ** 4, q)
+    native = ti.OscillatoryProblem(stiffness=a, potential=ti.FPUPotential(m, coordinates="original"))
+    assert not np.array_equal(native.basis, fpu_original_basis(m))
+    q0, p0 = ti.problems.fpu_initial(m, omega, coordinates="original")
+    kw = dict(h=0.03, n_steps=1000, save_every=100)
+    a_run = ti.integrate(native, "C", q0, p0, **kw)
+    b_run = ti.integrate(ti.OscillatoryProblem(stiffness=a, potential=expr), "C", q0, p0, **kw)
+    np.testing.assert_allclose(a_run.q, b_run.q, rtol=0, atol=1e-12)
+    assert np.max(np.abs(a_run.q - q0)) > 0.1
