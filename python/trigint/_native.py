@@ -117,7 +117,11 @@ def potential_spec(potential, lay: CoreLayout) -> dict:
 
 def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
     """U(Qx) for U(q): Q composed into the potential's input maps (a program's, each chain
-    term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U."""
+    term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U. A potential
+    whose own coordinates are the modal ones (Q is its `_own_basis()`) runs with no map."""
+    own = potential._own_basis()
+    if own is not None and own.shape == basis.shape and np.array_equal(own, basis):
+        return potential._spec_in_own_basis()
     kind = spec["kind"]
     if kind in ("fpu", "program"):
         return {**spec, "map": _compose(spec.get("map"), spec["m"] * 2 if kind == "fpu" else spec["n"], basis)}
