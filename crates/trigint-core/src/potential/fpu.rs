@@ -55,6 +55,26 @@ impl Fpu {
         })
     }
 
+    /// The chain at x = M z with the force Mᵀ g(x). Out of line, so that the kernels inline
+    /// only the unmapped chain (its fixed-size state stays in registers).
+    #[inline(never)]
+    fn mapped<L: Real>(
+        &self,
+        map: &LinearMap,
+        z: &[L],
+        f: &mut [L],
+        with_value: bool,
+        ws: &mut FpuWorkspace<L>,
+    ) -> L {
+        let (mut xs, mut gs) = (std::mem::take(&mut ws.x), std::mem::take(&mut ws.g));
+        map.apply(z, &mut xs);
+        let u = self.chain(&xs, &mut gs, with_value, ws);
+        f.fill(L::zero());
+        map.apply_transpose_add(&gs, f);
+        (ws.x, ws.g) = (xs, gs);
+        u
+    }
+
     #[inline(always)]
     fn chain<L: Real>(
         &self,
@@ -198,16 +218,10 @@ impl Potential for Fpu {
         with_value: bool,
         ws: &mut FpuWorkspace<L>,
     ) -> CoreResult<L> {
-        let Some(map) = &self.map else {
-            return Ok(self.chain(x, f, with_value, ws));
-        };
-        let (mut xs, mut gs) = (std::mem::take(&mut ws.x), std::mem::take(&mut ws.g));
-        map.apply(x, &mut xs);
-        let u = self.chain(&xs, &mut gs, with_value, ws);
-        f.fill(L::zero());
-        map.apply_transpose_add(&gs, f);
-        (ws.x, ws.g) = (xs, gs);
-        Ok(u)
+        match &self.map {
+            None => Ok(self.chain(x, f, with_value, ws)),
+            Some(map) => Ok(self.mapped(map, x, f, with_value, ws)),
+        }
     }
 
     #[inline(always)]
