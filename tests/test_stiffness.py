@@ -368,3 +368,13 @@ def test_the_native_fpu_through_a_map_when_its_coordinates_do_not_diagonalize_a(
     b_run = ti.integrate(ti.OscillatoryProblem(stiffness=a, potential=expr), "C", q0, p0, **kw)
     np.testing.assert_allclose(a_run.q, b_run.q, rtol=0, atol=1e-12)
     assert np.max(np.abs(a_run.q - q0)) > 0.1
+
+
+def test_a_krylov_product_that_cannot_converge_stops_the_run_keeping_its_samples(monkeypatch):
+    from trigint import _krylov
+
+    prob = chain_problem(40, "krylov")
+    monkeypatch.setattr(_krylov, "MAX_ITERATIONS", 3)
+    with pytest.warns(RuntimeWarning, match="did not reach the tolerance"):
+        sol = ti.integrate(prob, "B", np.full(40, 0.1), np.zeros(40), h=0.05, n_steps=10)
+    assert sol.status == "blow-up" and sol.steps.tolist() == [0]

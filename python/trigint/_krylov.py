@@ -156,12 +156,12 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
     potential = stepper.potential
     q, p = q0.copy(), p0.copy()
     status, message = "completed", f"{n_steps} steps"
-    g = stepper.force(q)
     e0 = energies(a, potential, q, p)
     steps, qs, ps, es = [0], [q.copy()], [p.copy()], [e0]
     worst = np.zeros(3)
     n = 0
     try:
+        g = stepper.force(q)
         while n < n_steps:
             q_next, p_next, g_next = stepper.step(q, p, g)
             if not (np.all(np.isfinite(q_next)) and np.all(np.isfinite(p_next))):
@@ -185,6 +185,9 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
                 break
     except KeyboardInterrupt:
         status, message = "interrupted", f"interrupted at step {n}"
+    except KrylovFailure as exc:
+        # the products lost their accuracy: stop as a blow-up does, keeping the samples
+        status, message = "blow-up", f"stopped before step {n + 1} (t = {(n + 1) * h:g}): {exc}"
     if steps[-1] != n:
         steps.append(n)
         qs.append(q.copy())

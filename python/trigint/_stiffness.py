@@ -115,8 +115,9 @@ def dense_stiffness(stiffness) -> np.ndarray:
         i, j = np.argwhere(~np.isfinite(a))[0]
         raise ValueError(f"stiffness: entries must be finite; A[{i}, {j}] = {a[i, j]}")
     scale = float(np.max(np.abs(a)))
-    if scale > 1e300:
-        raise ValueError(f"stiffness: entries up to 1e300 in size are allowed, got {scale:g}")
+    if scale > 1e250:
+        raise ValueError(f"stiffness: entries up to 1e250 in size are allowed (ω² = λ must stay finite), "
+                         f"got {scale:g}")
     asym = float(np.max(np.abs(a - a.T)))
     if asym > 1e-12 * scale:
         i, j = np.unravel_index(int(np.argmax(np.abs(a - a.T))), a.shape)
@@ -132,13 +133,18 @@ def diagonalize(a: np.ndarray, slow_tolerance: float, equal_tolerance: float,
     orthogonal T that diagonalizes A to rounding (TᵀAT diagonal within 1e-13 of |A|), is
     taken as the basis itself (columns kept in their order within the slow and each block)."""
     n = a.shape[0]
-    lam, q = _eigh_by_component(a)
+    lam = q = None
     if preferred is not None and preferred.shape == a.shape:
         d = preferred.T @ a @ preferred
         off = d - np.diag(np.diag(d))
-        scale = max(float(np.max(np.abs(a))), 1e-300)
-        if np.max(np.abs(off)) <= 1e-13 * scale and np.allclose(preferred.T @ preferred, np.eye(n), atol=1e-14):
+        size = max(float(np.max(np.abs(a))), 1e-300)
+        if np.max(np.abs(off)) <= 1e-13 * size and np.allclose(preferred.T @ preferred, np.eye(n), atol=1e-14):
             lam, q = np.diag(d).copy(), np.array(preferred, dtype=float)
+    if lam is None:
+        lam, q = _eigh_by_component(a)
+    if not np.all(np.isfinite(lam)):
+        raise ValueError("stiffness: the eigenvalues of A overflow a double; scale the problem (entries up to "
+                         "1e250 are allowed)")
     scale = float(np.max(np.abs(lam))) if lam.size else 0.0
     floor = slow_tolerance * scale
     negative = np.flatnonzero(lam < -floor)
@@ -212,8 +218,8 @@ def sparse_stiffness(stiffness):
     if not np.all(np.isfinite(a.data)):
         raise ValueError("stiffness: entries must be finite; A has a non-finite entry")
     scale = float(np.max(np.abs(a.data))) if a.nnz else 0.0
-    if scale > 1e300:
-        raise ValueError(f"stiffness: entries up to 1e300 in size are allowed, got {scale:g}")
+    if scale > 1e250:
+        raise ValueError(f"stiffness: entries up to 1e250 in size are allowed, got {scale:g}")
     diff = a - a.T
     asym = float(np.max(np.abs(diff.data))) if diff.nnz else 0.0
     if asym > 1e-12 * scale:
