@@ -10,7 +10,7 @@ to find the coordinates in which it is diagonal. trigint diagonalizes A once, gr
 eigenvalues (m slow ones and one frequency ω of multiplicity m), steps the modal coordinates and
 hands everything back in q.
 
-Left: the oscillatory energy H_ω (½(|P p|² + ω²|P q|²) with the spectral projector P of the
+Left: the oscillatory energy H_ω (½(‖P p‖² + ω²‖P q‖²) with the spectral projector P of the
 frequency ω) stays within O(ε) of its start. Right: the frequencies of a different chain, every
 neighbour joined by a stiff spring and the ends fixed (A = ω² tridiag(−1, 2, −1)), whose n
 distinct frequencies 2ω sin(kπ/(2(n + 1))) fill [0, 2ω]: trigint finds them from A the same way.

@@ -99,8 +99,6 @@ class FPUPotential(Potential):
 
         U(x) = ¼[(x₀,₁ − x₁,₁)⁴ + Σᵢ₌₁^{m−1}(x₀,ᵢ₊₁ − x₁,ᵢ₊₁ − x₀,ᵢ − x₁,ᵢ)⁴ + (x₀,ₘ + x₁,ₘ)⁴].
 
-    Examples
-    --------
     With ``coordinates="original"`` the same springs as a function of the particles'
     positions q₁ … q₂ₘ: U(q) = Σᵢ₌₀^m (q₂ᵢ₊₁ − q₂ᵢ)⁴ with q₀ = q₂ₘ₊₁ = 0, evaluated as U(x(q))
     through the orthogonal map x = Tᵀq of :func:`trigint.problems.fpu_original_basis`.
