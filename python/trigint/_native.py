@@ -118,10 +118,11 @@ def potential_spec(potential, lay: CoreLayout) -> dict:
 def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
     """U(Qx) for U(q): Q composed into the potential's input maps (a program's, each chain
     term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U. A potential
-    whose own coordinates are the modal ones (Q is its `_own_basis()`) runs with no map."""
-    own = potential._own_basis()
-    if own is not None and own.shape == basis.shape and np.array_equal(own, basis):
-        return potential._spec_in_own_basis()
+    whose own coordinates are the modal ones (Q is the T of its `_own_coordinates()`) runs
+    with no map."""
+    own = potential._own_coordinates()
+    if own is not None and own[0].shape == basis.shape and np.array_equal(own[0], basis):
+        return own[1]
     kind = spec["kind"]
     if kind in ("fpu", "program"):
         return {**spec, "map": _compose(spec.get("map"), spec["m"] * 2 if kind == "fpu" else spec["n"], basis)}

@@ -41,14 +41,12 @@ class Potential(ABC):
     def _spec(self, n: int) -> dict:
         """The description handed to the core for a state of n coordinates (user order)."""
 
-    def _own_basis(self) -> np.ndarray | None:
-        """An orthogonal T (q = T x) in whose coordinates x this potential is native, or None.
-        When T diagonalizes a problem's stiffness matrix it is taken as the modal basis, and
-        the kernel evaluates the potential in x with no map at all."""
+    def _own_coordinates(self) -> tuple[np.ndarray, dict] | None:
+        """(T, spec): an orthogonal T (q = T x) in whose coordinates x this potential is native,
+        with its description in x; None for most potentials. When T diagonalizes a problem's
+        stiffness matrix it is taken as the modal basis, and the kernel evaluates the potential
+        in x with no map at all."""
         return None
-
-    def _spec_in_own_basis(self) -> dict:
-        raise NotImplementedError
 
     def check_dim(self, n: int) -> None:
         if self.dim is not None and self.dim != n:
@@ -132,15 +130,12 @@ class FPUPotential(Potential):
     def _spec(self, n: int) -> dict:
         return {"kind": "fpu", "m": self.m, "map": self._map()}
 
-    def _own_basis(self) -> np.ndarray | None:
+    def _own_coordinates(self) -> tuple[np.ndarray, dict] | None:
         if self.coordinates == "diagonal":
             return None
         from .problems import fpu_original_basis
 
-        return fpu_original_basis(self.m)
-
-    def _spec_in_own_basis(self) -> dict:
-        return {"kind": "fpu", "m": self.m, "map": None}
+        return fpu_original_basis(self.m), {"kind": "fpu", "m": self.m, "map": None}
 
     def _program_spec(self) -> dict:
         """The same U as a compiled program (for coordinate orders the native code does not

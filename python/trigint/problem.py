@@ -92,7 +92,8 @@ class OscillatoryProblem:
             self.path = "dense"
             a = _stiffness.dense_stiffness(stiffness)
             _check_potential(potential, a.shape[0])
-            modal = _stiffness.diagonalize(a, slow_tolerance, equal_tolerance, potential._own_basis())
+            own = potential._own_coordinates()
+            modal = _stiffness.diagonalize(a, slow_tolerance, equal_tolerance, None if own is None else own[0])
             a.setflags(write=False)
             self.stiffness, self.basis = a, modal.basis
             self.omega, self.blocks, self.potential = modal.omega, modal.blocks, potential
