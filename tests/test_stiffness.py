@@ -378,3 +378,25 @@ def test_a_krylov_product_that_cannot_converge_stops_the_run_keeping_its_samples
     with pytest.warns(RuntimeWarning, match="did not reach the tolerance"):
         sol = ti.integrate(prob, "B", np.full(40, 0.1), np.zeros(40), h=0.05, n_steps=10)
     assert sol.status == "blow-up" and sol.steps.tolist() == [0]
+
+
+def test_a_vectorized_python_potential_gives_each_lane_the_bits_of_integrate():
+    def value(q):
+        return 0.25 * np.sum(np.diff(q, axis=-1) ** 4, axis=-1) + 0.1 * q[..., 0] ** 3
+
+    def gradient(q):
+        d3 = np.diff(q, axis=-1) ** 3
+        g = np.zeros_like(q)
+        g[..., :-1] -= d3
+        g[..., 1:] += d3
+        g[..., 0] += 0.3 * q[..., 0] ** 2
+        return g
+
+    prob = ti.OscillatoryProblem(stiffness=stiffness_with(EIGENVALUES, seed=4),
+                                 potential=ti.PythonPotential(value, gradient, 5, vectorized=True))
+    rng = np.random.default_rng(8)
+    q0, p0 = 0.1 * rng.normal(size=(5, 5)), rng.normal(size=(5, 5))
+    ds = ti.ensemble(prob, "C", q0, p0, h=0.05, n_steps=200, save_every=100, threads=2)
+    for t in (0, 4):
+        sol = ti.integrate(prob, "C", q0[t], p0[t], h=0.05, n_steps=200, save_every=100)
+        assert np.array_equal(ds["q"].values[t][ds["step"].values[t] >= 0], sol.q)

@@ -62,14 +62,6 @@ def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
 
 
 def core_layout(problem) -> CoreLayout:
-    if problem.basis is not None:
-        # the modal coordinates come ordered: slow first, then block by block
-        blocks = np.asarray(problem.blocks)
-        n_slow = int(np.count_nonzero(blocks == 0))
-        ends = [int(np.flatnonzero(blocks == j)[-1]) + 1 for j in range(1, problem.n_blocks + 1)]
-        spec = {"omega2": np.ascontiguousarray(problem.omega**2), "n_slow": n_slow, "block_ends": ends}
-        ident = np.arange(blocks.size)
-        return CoreLayout(spec, ident, ident, True, problem.basis)
     blocks = np.asarray(problem.blocks)
     perm = np.argsort(blocks, kind="stable")
     inverse = np.empty_like(perm)
@@ -82,7 +74,9 @@ def core_layout(problem) -> CoreLayout:
         "n_slow": n_slow,
         "block_ends": ends,
     }
-    return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))))
+    # a stiffness matrix's modal coordinates come ordered (slow first, block by block): perm is
+    # the identity and Q the whole map
+    return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))), problem.basis)
 
 
 def method_rows(co, fast: np.ndarray) -> dict:
@@ -131,11 +125,14 @@ def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
     if kind == "python":
         value, gradient = spec["value"], spec["gradient"]
 
+        back = np.ascontiguousarray(basis.T)
+
+        # change_basis, not BLAS: a state gets the same q = Qx alone and in a block of lanes
         def value_modal(x):
-            return value(x @ basis.T)
+            return value(change_basis(x, back))
 
         def gradient_modal(x):
-            return np.asarray(gradient(x @ basis.T), dtype=float) @ basis
+            return change_basis(np.asarray(gradient(change_basis(x, back)), dtype=float), basis)
 
         return {**spec, "value": value_modal, "gradient": gradient_modal}
     raise ValueError(f"unknown potential kind {kind!r}")
