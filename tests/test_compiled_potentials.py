@@ -211,7 +211,8 @@ def test_vectorized_python_potential_gets_blocks():
     prob = ti.OscillatoryProblem([0.0, 10.0], pot)
     ti.ensemble(prob, "B", np.random.default_rng(0).normal(size=(300, 2)), [0.0, 0.0], h=0.01, n_steps=5,
                 threads=1, progress=False)
-    assert max(s[0] for s in calls) == 64 and all(s[1] == 2 for s in calls)
+    # 300 trajectories: two bundles of 256 rows (the second padded), one call each per step
+    assert set(calls) == {(256, 2)} and len(calls) == 2 * 6
 
 
 def test_overflow_stops_with_blow_up_and_keeps_samples():
@@ -262,20 +263,22 @@ def test_dimension_mismatch_and_bad_chains():
 
 
 def test_vectorized_python_blocks_with_unequal_lengths_equal_integrate():
-    """A full block of 64 lanes whose trajectories end at different steps (a step size each,
-    one t_end), and one that blows up: every lane equals integrate() on it alone."""
+    """A full bundle of 256 lanes and a part of a second, whose trajectories end at different
+    steps (a step size each, one t_end), and two that blow up: every lane equals integrate()
+    on it alone, lanes beyond 64 and 128 (beyond one word of the lane sets) included."""
     u = lambda x: np.sum(x**4, axis=-1) / 4 - 0.5 * x[..., 0] ** 6  # noqa: E731
     g = lambda x: x**3 - np.where(np.arange(x.shape[-1]) == 0, 3.0 * x[..., :1] ** 5, 0.0)  # noqa: E731
     vec = ti.OscillatoryProblem([0.0, 30.0], ti.PythonPotential(u, g, vectorized=True))
     one = ti.OscillatoryProblem([0.0, 30.0], ti.PythonPotential(lambda x: float(u(x)), g))
     rng = np.random.default_rng(7)
-    Q0 = rng.normal(scale=0.3, size=(70, 2))
-    Q0[5, 0] = 1.6  # runs away under the −x⁶ term
-    h = rng.uniform(0.01, 0.03, 70)
+    Q0 = rng.normal(scale=0.3, size=(300, 2))
+    Q0[[5, 200], 0] = 1.6  # runs away under the −x⁶ term
+    h = rng.uniform(0.01, 0.03, 300)
     with pytest.warns(RuntimeWarning):
         ds = ti.ensemble(vec, "B", Q0, [0.0, 0.0], h=h, t_end=3.0, save_every=25, threads=1, progress=False)
-    assert ds.status.values[5] == "blow-up"
-    for k in [0, 5, 17, 40, 63, 64, 69]:
+    assert list(ds.status.values[[5, 200]]) == ["blow-up"] * 2
+    blown = np.flatnonzero(ds.status.values == "blow-up")
+    for k in sorted({0, 5, 63, 64, 127, 128, 200, 255, 256, 299, *blown[:6]}):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             sol = ti.integrate(one, "B", Q0[k], [0.0, 0.0], h=h[k], t_end=3.0, save_every=25)

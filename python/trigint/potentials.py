@@ -453,7 +453,7 @@ class PythonPotential(Potential):
     Per trajectory (default), ``value(q)`` and ``gradient(q)`` take a 1-d array q of shape (n,)
     and return a float and an array of shape (n,). With ``vectorized=True`` they take the
     states of a whole block of trajectories, an array of shape (lanes, n), and return shapes
-    (lanes,) and (lanes, n): in ``ensemble()`` that is one call per block of 64 trajectories
+    (lanes,) and (lanes, n): in ``ensemble()`` that is one call per bundle of 256 trajectories
     and step instead of one per trajectory.
 
     Examples

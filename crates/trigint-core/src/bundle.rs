@@ -23,7 +23,7 @@ use crate::energy::{
 use crate::error::CoreResult;
 use crate::output::{Form, Record, Status, TrajectoryOutput};
 use crate::potential::Potential;
-use crate::real::Real;
+use crate::real::{LaneSet, Real};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Shape, Storage};
 
@@ -89,13 +89,8 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     /// Σ(p² + ω²q²) per block, when ℓ > 1
     block_sums: Vec<L>,
     lanes: Vec<Lane>,
-    /// Bit b: lane b is still running.
-    active: u64,
-}
-
-/// Bits of the lanes set in `mask`.
-fn lanes_of(mask: u64) -> impl Iterator<Item = usize> {
-    (0..64).filter(move |b| mask >> b & 1 == 1)
+    /// The lanes still running.
+    active: LaneSet,
 }
 
 impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
@@ -158,11 +153,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             ext: Extremes::new(n_blocks),
             block_sums: vec![L::zero(); n_blocks.max(1)],
             lanes,
-            active: if count >= 64 {
-                u64::MAX
-            } else {
-                (1u64 << count) - 1
-            },
+            active: LaneSet::first(count),
         }
     }
 
@@ -199,7 +190,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     fn steps(&mut self, control: &mut Control) -> CoreResult<()> {
         self.start()?;
         let mut n = 1;
-        while self.active != 0 {
+        while !self.active.is_empty() {
             let e = self.next_event(n, SEGMENT, control.every);
             self.save_checkpoint();
             let detected = self.hot_dispatch(n, e)?;
@@ -214,7 +205,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 continue;
             }
             let mut sums = self.observe_state()?;
-            if e > n && self.nonfinite(&sums) != 0 {
+            if e > n && !self.nonfinite(&sums).is_empty() {
                 // The last good state is at n − 1, not e − 1: replay the segment carefully.
                 self.restore_checkpoint()?;
                 for i in n..e {
@@ -224,7 +215,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 sums = self.observe_state()?;
             }
             self.careful(e, sums, true)?;
-            if self.active != 0 && (e % control.every == 0) && !(control.report)(e) {
+            if !self.active.is_empty() && (e % control.every == 0) && !(control.report)(e) {
                 self.interrupt(e);
             }
             n = e + 1;
@@ -240,7 +231,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             e = e.min(up_to_multiple(s));
         }
         e = e.min(up_to_multiple(every.max(1)));
-        for b in lanes_of(self.active) {
+        for b in self.active.iter() {
             e = e.min(self.lanes[b].n_steps);
         }
         e
@@ -357,7 +348,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         }
     }
 
-    fn nonfinite(&self, sums: &Sums<L>) -> u64 {
+    fn nonfinite(&self, sums: &Sums<L>) -> LaneSet {
         let main = sums.channels(self.st.u, self.w.plain_modified);
         main[TOTAL].nonfinite_lanes() & self.active
     }
@@ -392,7 +383,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             &mut self.block_sums,
         );
         let (main, blocks) = self.channels(&sums);
-        for b in lanes_of(self.active) {
+        for b in self.active.iter() {
             self.lanes[b].initial = self.row(&main, &blocks, b);
         }
         self.take_observation(0, &main, &blocks, true);
@@ -427,7 +418,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     /// What a careful step does with its observation (the state at step i is in q and p).
     fn take_observation(&mut self, i: u64, main: &[L; FIRST_BLOCK], blocks: &[L], event: bool) {
         let bad = main[TOTAL].nonfinite_lanes() & self.active;
-        for b in lanes_of(bad) {
+        for b in bad.iter() {
             self.blow_up(b, i);
         }
         if self.record.track {
@@ -435,7 +426,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         }
         if event {
             let sampling = i == 0 || self.record.save_every.is_some_and(|s| i % s == 0);
-            for b in lanes_of(self.active) {
+            for b in self.active.iter() {
                 let ends = self.lanes[b].n_steps == i;
                 if ends || sampling {
                     self.sample(b, i, main, blocks);
@@ -454,18 +445,13 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     }
 
     /// Running extremes of the lanes in `mask` (all lanes at once when the mask is full).
-    fn update_extremes(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], mask: u64) {
-        let full = if L::LANES >= 64 {
-            u64::MAX
-        } else {
-            (1u64 << L::LANES) - 1
-        };
-        if mask == full {
+    fn update_extremes(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], mask: LaneSet) {
+        if mask == LaneSet::first(L::LANES) {
             self.ext.update(main, false);
             self.ext.update_blocks(blocks);
             return;
         }
-        for b in lanes_of(mask) {
+        for b in mask.iter() {
             let ext = &mut self.ext;
             for c in 0..FIRST_BLOCK {
                 let e = main[c].lane(b);
@@ -555,13 +541,13 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         lane.steps_done = steps_done;
         lane.high = high;
         lane.low = low;
-        self.active &= !(1u64 << b);
+        self.active.remove(b);
     }
 
     /// A stop request at step e (observed, state already advanced): the running lanes end
     /// there, their last observed state kept.
     fn interrupt(&mut self, e: u64) {
-        for b in lanes_of(self.active) {
+        for b in self.active.iter() {
             self.keep_good(b);
             let n = self.lanes[b].n_steps;
             self.end_lane(b, Status::Interrupted, e);
@@ -611,7 +597,7 @@ struct HotLoop<
     st: State<L, Sh>,
     ext: Extremes<L>,
     block_sums: &'a mut [L],
-    active: u64,
+    active: LaneSet,
     n: u64,
     e: u64,
 }
@@ -702,13 +688,13 @@ impl<
                 let bad = if TRACK {
                     guard.nonfinite_lanes()
                 } else {
-                    let mut bad = 0u64;
+                    let mut bad = LaneSet::EMPTY;
                     for x in st.q.get() {
                         bad |= x.nonfinite_lanes();
                     }
                     bad
                 };
-                if bad & active != 0 {
+                if !(bad & active).is_empty() {
                     // Replayed from the checkpoint, extremes included.
                     return Ok(Some(j));
                 }

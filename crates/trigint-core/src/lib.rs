@@ -31,7 +31,7 @@ pub use energy::{channel_names, Samples};
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
 pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec};
-pub use real::{Lanes, Real, Scalar};
+pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
 pub use run::{integrate, integrate_batch};
 pub use shape::Layout;
 

@@ -7,7 +7,88 @@
 //! contracts a·b + c into a fused multiply-add, so the vectorized code (SSE, AVX2, AVX-512,
 //! chosen at run time) gives the same bits as the scalar code too.
 
-use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+use std::ops::{
+    Add, AddAssign, BitAnd, BitOr, BitOrAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign,
+};
+
+/// The most lanes a bundle may have: the size of a [`LaneSet`].
+pub const MAX_LANES: usize = 256;
+const WORDS: usize = MAX_LANES / 64;
+
+/// A set of a bundle's lanes (which are still running, which are not finite): one bit per lane.
+///
+/// A fixed 256 bits, so the same code serves bundles of 1 to [`MAX_LANES`] lanes; in a kernel
+/// of 8 lanes the three upper words are constant zeros that the compiler folds away.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LaneSet([u64; WORDS]);
+
+impl LaneSet {
+    pub const EMPTY: LaneSet = LaneSet([0; WORDS]);
+
+    /// Lanes 0 .. count (count ≤ [`MAX_LANES`]).
+    pub fn first(count: usize) -> Self {
+        assert!(count <= MAX_LANES, "a bundle has at most {MAX_LANES} lanes");
+        let mut s = Self::EMPTY;
+        for (w, word) in s.0.iter_mut().enumerate() {
+            let bits = count.saturating_sub(64 * w).min(64);
+            *word = if bits == 64 {
+                u64::MAX
+            } else {
+                (1u64 << bits) - 1
+            };
+        }
+        s
+    }
+
+    /// Adds lane b when `yes` (branch-free, for lane loops).
+    #[inline(always)]
+    pub fn insert_if(&mut self, b: usize, yes: bool) {
+        self.0[b / 64] |= u64::from(yes) << (b % 64);
+    }
+
+    #[inline(always)]
+    pub fn remove(&mut self, b: usize) {
+        self.0[b / 64] &= !(1u64 << (b % 64));
+    }
+
+    #[inline(always)]
+    pub fn contains(self, b: usize) -> bool {
+        self.0[b / 64] >> (b % 64) & 1 == 1
+    }
+
+    #[inline(always)]
+    pub fn is_empty(self) -> bool {
+        self.0.iter().all(|&w| w == 0)
+    }
+
+    /// The lanes in the set, in increasing order.
+    pub fn iter(self) -> impl Iterator<Item = usize> {
+        (0..MAX_LANES).filter(move |&b| self.contains(b))
+    }
+}
+
+impl BitAnd for LaneSet {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, o: Self) -> Self {
+        LaneSet(std::array::from_fn(|w| self.0[w] & o.0[w]))
+    }
+}
+
+impl BitOr for LaneSet {
+    type Output = Self;
+    #[inline(always)]
+    fn bitor(self, o: Self) -> Self {
+        LaneSet(std::array::from_fn(|w| self.0[w] | o.0[w]))
+    }
+}
+
+impl BitOrAssign for LaneSet {
+    #[inline(always)]
+    fn bitor_assign(&mut self, o: Self) {
+        *self = *self | o;
+    }
+}
 
 /// Arithmetic on one number per trajectory.
 pub trait Real:
@@ -33,8 +114,8 @@ pub trait Real:
     fn keep_max(self, e: Self) -> Self;
     /// `if e < self { e } else { self }` per lane.
     fn keep_min(self, e: Self) -> Self;
-    /// Bit b is set where lane b is not finite (its exponent bits are all ones).
-    fn nonfinite_lanes(self) -> u64;
+    /// The lanes that are not finite (their exponent bits are all ones).
+    fn nonfinite_lanes(self) -> LaneSet;
     /// IEEE square root per lane (correctly rounded, so the same bits everywhere).
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -83,8 +164,10 @@ impl Real for f64 {
         }
     }
     #[inline(always)]
-    fn nonfinite_lanes(self) -> u64 {
-        u64::from(self.to_bits() & EXPONENT == EXPONENT)
+    fn nonfinite_lanes(self) -> LaneSet {
+        let mut s = LaneSet::EMPTY;
+        s.insert_if(0, self.to_bits() & EXPONENT == EXPONENT);
+        s
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
@@ -195,7 +278,7 @@ impl Real for Scalar {
         Scalar(opaque(self.0.keep_min(e.0)))
     }
     #[inline(always)]
-    fn nonfinite_lanes(self) -> u64 {
+    fn nonfinite_lanes(self) -> LaneSet {
         self.0.nonfinite_lanes()
     }
     #[inline(always)]
@@ -275,9 +358,12 @@ impl<const W: usize> Neg for Lanes<W> {
 }
 
 impl<const W: usize> Real for Lanes<W> {
-    // Lane sets are u64 bitmasks (`nonfinite_lanes`, a bundle's active lanes): at most 64.
+    // Lane sets (`nonfinite_lanes`, a bundle's running lanes) hold at most MAX_LANES.
     const LANES: usize = {
-        assert!(W >= 1 && W <= 64, "a bundle has 1 to 64 lanes");
+        assert!(
+            W >= 1 && W <= MAX_LANES,
+            "a bundle has 1 to MAX_LANES lanes"
+        );
         W
     };
     #[inline(always)]
@@ -317,12 +403,12 @@ impl<const W: usize> Real for Lanes<W> {
         Lanes(r)
     }
     #[inline(always)]
-    fn nonfinite_lanes(self) -> u64 {
-        let mut mask = 0u64;
+    fn nonfinite_lanes(self) -> LaneSet {
+        let mut s = LaneSet::EMPTY;
         for b in 0..W {
-            mask |= u64::from(self.0[b].to_bits() & EXPONENT == EXPONENT) << b;
+            s.insert_if(b, self.0[b].to_bits() & EXPONENT == EXPONENT);
         }
-        mask
+        s
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
@@ -362,11 +448,11 @@ impl<const W: usize> Real for Lanes<W> {
 /// vectorizes (a floating-point sum would be a sequential chain).
 #[inline(always)]
 pub fn all_finite<L: Real>(x: &[L]) -> bool {
-    let mut bad = 0u64;
+    let mut bad = LaneSet::EMPTY;
     for &v in x {
         bad |= v.nonfinite_lanes();
     }
-    bad == 0
+    bad.is_empty()
 }
 
 #[cfg(test)]
@@ -390,8 +476,31 @@ mod tests {
         let hi = Lanes([1.0, 2.0]);
         let e = Lanes([f64::NAN, 3.0]);
         assert_eq!(hi.keep_max(e).0, [1.0, 3.0]);
-        assert_eq!(e.nonfinite_lanes(), 0b01);
-        assert_eq!(Lanes([1.0, f64::INFINITY]).nonfinite_lanes(), 0b10);
+        assert_eq!(e.nonfinite_lanes().iter().collect::<Vec<_>>(), [0]);
+        assert_eq!(
+            Lanes([1.0, f64::INFINITY])
+                .nonfinite_lanes()
+                .iter()
+                .collect::<Vec<_>>(),
+            [1]
+        );
         assert!(!all_finite(&[1.0, f64::NAN]));
+    }
+
+    #[test]
+    fn lane_sets_hold_every_lane_of_the_widest_bundle() {
+        for count in [0, 1, 63, 64, 65, 200, MAX_LANES] {
+            let s = LaneSet::first(count);
+            assert_eq!(s.iter().collect::<Vec<_>>(), (0..count).collect::<Vec<_>>());
+        }
+        let mut x = Lanes([1.0; MAX_LANES]);
+        x.0[70] = f64::NAN;
+        x.0[255] = f64::NEG_INFINITY;
+        let bad = x.nonfinite_lanes();
+        assert_eq!(bad.iter().collect::<Vec<_>>(), [70, 255]);
+        let mut running = LaneSet::first(MAX_LANES);
+        running.remove(70);
+        assert_eq!((bad & running).iter().collect::<Vec<_>>(), [255]);
+        assert!((bad & LaneSet::first(70)).is_empty());
     }
 }

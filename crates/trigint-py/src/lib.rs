@@ -120,9 +120,14 @@ fn integrate<'py>(
     Ok(d)
 }
 
-/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step (64,
-/// the most a bundle's u64 lane masks hold).
-type WideLanes = Lanes<64>;
+/// Trajectories per bundle for a vectorized Python potential: one call per bundle and step, so
+/// as many as a bundle holds (a NumPy call costs tens of µs whatever its rows: 64 rows of the
+/// FPU cost 1.5 µs per row, 256 rows 0.8 µs).
+type WideLanes = Lanes<{ trigint_core::MAX_LANES }>;
+
+/// Stack of each worker thread: a bundle of `WideLanes` keeps its state (2 KiB per number) in
+/// locals of the step loop.
+const WORKER_STACK: usize = 64 << 20;
 
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
 /// threads=None) -> dict
@@ -155,7 +160,7 @@ fn integrate_batch<'py>(
         q0.as_array().iter().copied().collect(),
         p0.as_array().iter().copied().collect(),
     );
-    let mut builder = rayon::ThreadPoolBuilder::new();
+    let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK);
     if let Some(t) = threads {
         builder = builder.num_threads(t);
     }

@@ -9,6 +9,7 @@
 
 mod chain;
 mod fpu;
+mod jit;
 mod linear;
 mod program;
 

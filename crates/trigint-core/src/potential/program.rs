@@ -12,6 +12,7 @@
 
 use std::collections::HashMap;
 
+use super::jit::{self, Compiled};
 use super::linear::LinearMap;
 use super::Potential;
 use crate::error::{CoreError, CoreResult};
@@ -638,13 +639,20 @@ pub struct Program {
     full: Code,
     force_only: Code,
     value_only: Code,
+    /// The three codes as machine code, for one trajectory at a time (None: interpreted,
+    /// with the same bits). Bundles of lanes run the interpreter, whose every instruction is
+    /// one loop over the lanes.
+    native: Option<Vec<Compiled>>,
 }
 
-/// Register files of the three codes, constants in place.
+/// Register files of the three codes, constants in place, and the in/out buffers of the
+/// machine code.
 pub struct ProgramWorkspace<L> {
     full: Vec<L>,
     force_only: Vec<L>,
     value_only: Vec<L>,
+    input: Vec<f64>,
+    output: Vec<f64>,
 }
 
 impl Program {
@@ -760,12 +768,31 @@ impl Program {
             .collect();
         let (g, roots) = g.lower_powers(&roots);
         let (value, force) = (roots[0], &roots[1..]);
+        let (full, force_only, value_only) = (
+            Code::schedule(&g, n, Some(value), Some(force)),
+            Code::schedule(&g, n, None, Some(force)),
+            Code::schedule(&g, n, Some(value), None),
+        );
+        let native = jit::compile(&[&full, &force_only, &value_only]);
         Ok(Program {
             n,
-            full: Code::schedule(&g, n, Some(value), Some(force)),
-            force_only: Code::schedule(&g, n, None, Some(force)),
-            value_only: Code::schedule(&g, n, Some(value), None),
+            full,
+            force_only,
+            value_only,
+            native,
         })
+    }
+
+    /// The same program without machine code: every evaluation interpreted (for comparing the
+    /// two, and where compiling is not wanted).
+    pub fn interpreted(mut self) -> Self {
+        self.native = None;
+        self
+    }
+
+    /// Whether one-trajectory evaluations run machine code.
+    pub fn is_native(&self) -> bool {
+        self.native.is_some()
     }
 
     /// Register files for [`eval_tiles`](Self::eval_tiles): one per code.
@@ -833,6 +860,31 @@ impl Program {
         self.force_only.instrs.len()
     }
 
+    /// One trajectory through machine code `which` (0: U and g, 1: g, 2: U); None when there
+    /// is none or `x` holds several lanes.
+    #[inline(always)]
+    fn eval_native<L: Real>(
+        &self,
+        which: usize,
+        ws: &mut ProgramWorkspace<L>,
+        x: &[L],
+        force: Option<&mut [L]>,
+    ) -> Option<L> {
+        let f = self.native.as_ref().filter(|_| L::LANES == 1)?;
+        for (dst, v) in ws.input.iter_mut().zip(x) {
+            *dst = v.lane(0);
+        }
+        f[which].call(&ws.input, &mut ws.output);
+        let mut k = 0;
+        if let Some(force) = force {
+            for g in force.iter_mut() {
+                *g = L::splat(ws.output[k]);
+                k += 1;
+            }
+        }
+        Some(L::splat(if which == 1 { 0.0 } else { ws.output[k] }))
+    }
+
     #[inline(always)]
     fn eval<L: Real>(code: &Code, r: &mut [L], x: &[L], force: Option<&mut [L]>) -> L {
         r[..code.n_inputs].copy_from_slice(&x[..code.n_inputs]);
@@ -858,6 +910,8 @@ impl Potential for Program {
             full: self.full.registers(),
             force_only: self.force_only.registers(),
             value_only: self.value_only.registers(),
+            input: vec![0.0; self.n],
+            output: vec![0.0; self.n + 1],
         }
     }
 
@@ -869,6 +923,9 @@ impl Potential for Program {
         with_value: bool,
         ws: &mut ProgramWorkspace<L>,
     ) -> CoreResult<L> {
+        if let Some(u) = self.eval_native(if with_value { 0 } else { 1 }, ws, x, Some(force)) {
+            return Ok(u);
+        }
         Ok(if with_value {
             Self::eval(&self.full, &mut ws.full, x, Some(force))
         } else {
@@ -878,6 +935,9 @@ impl Potential for Program {
 
     #[inline(always)]
     fn value<L: Real>(&self, x: &[L], ws: &mut ProgramWorkspace<L>) -> CoreResult<L> {
+        if let Some(u) = self.eval_native(2, ws, x, None) {
+            return Ok(u);
+        }
         Ok(Self::eval(&self.value_only, &mut ws.value_only, x, None))
     }
 }
@@ -886,7 +946,7 @@ impl Potential for Program {
 mod tests {
     use super::*;
     use crate::potential::Fpu;
-    use crate::real::Lanes;
+    use crate::real::{Lanes, Scalar};
 
     /// U = ¼ Σ (linear form)⁴ of the FPU chain, m = 3, as SymPy hands it over: each term
     /// x⁴/4 with the linear forms written with negations.
@@ -1011,6 +1071,101 @@ mod tests {
                 + 1.0 / (y * y);
             assert!((f[0] + gx).abs() < 1e-13 * gx.abs(), "{} vs {}", f[0], -gx);
             assert!((f[1] + gy).abs() < 1e-13 * gy.abs(), "{} vs {}", f[1], -gy);
+        }
+    }
+
+    #[test]
+    fn machine_code_gives_the_interpreters_bits() {
+        // Every operation, several times over, in three coordinates: U = Σ of
+        // tan(x0)·sinh(x1)/cosh(x2) + sign(x0)|x1|^0.7 + exp(−x2²) log(1 + x0²)
+        // + sqrt(1 + x1⁴) cos(x2) sin(x0) − tanh(x0 x1 x2) + (x0 − x2)⁻³.
+        let ops = vec![
+            Op::Input(0),
+            Op::Input(1),
+            Op::Input(2),
+            Op::Tan(0),
+            Op::Sinh(1),
+            Op::Cosh(2),
+            Op::Mul(3, 4),
+            Op::Div(6, 5),
+            Op::Sign(0),
+            Op::Abs(1),
+            Op::Powf(9, 0.7),
+            Op::Mul(8, 10),
+            Op::Powi(2, 2),
+            Op::Neg(12),
+            Op::Exp(13),
+            Op::Const(1.0),
+            Op::Powi(0, 2),
+            Op::Add(15, 16),
+            Op::Log(17),
+            Op::Mul(14, 18),
+            Op::Powi(1, 4),
+            Op::Add(15, 20),
+            Op::Sqrt(21),
+            Op::Cos(2),
+            Op::Sin(0),
+            Op::Mul(22, 23),
+            Op::Mul(25, 24),
+            Op::Mul(0, 1),
+            Op::Mul(27, 2),
+            Op::Tanh(28),
+            Op::Sub(0, 2),
+            Op::Powi(30, -3),
+            Op::Add(7, 11),
+            Op::Add(32, 19),
+            Op::Add(33, 26),
+            Op::Sub(34, 29),
+            Op::Add(35, 31),
+        ];
+        let spec = ProgramSpec {
+            n_inputs: 3,
+            ops,
+            output: 36,
+        };
+        let native = Program::new(&spec, None).unwrap();
+        assert!(native.is_native(), "no machine code on this host");
+        let plain = native.clone().interpreted();
+        let (mut wn, mut wp) = (native.workspace::<f64>(), plain.workspace::<f64>());
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
+        };
+        let mut points: Vec<[f64; 3]> = (0..500)
+            .map(|_| [uniform(), uniform(), uniform()])
+            .collect();
+        points.extend([
+            [0.0, 0.0, 1.0],
+            [1.0, -0.0, 1.0],
+            [f64::NAN, 1.0, 2.0],
+            [800.0, 1.0, 2.0],
+        ]);
+        for x in &points {
+            for with_value in [true, false] {
+                let (mut fn_, mut fp) = ([0.0; 3], [0.0; 3]);
+                let un = native.force(x, &mut fn_, with_value, &mut wn).unwrap();
+                let up = plain.force(x, &mut fp, with_value, &mut wp).unwrap();
+                for i in 0..3 {
+                    assert_eq!(fn_[i].to_bits(), fp[i].to_bits(), "force {i} at {x:?}");
+                }
+                if with_value {
+                    assert_eq!(un.to_bits(), up.to_bits(), "U at {x:?}");
+                }
+            }
+            let (vn, vp) = (
+                native.value(x, &mut wn).unwrap(),
+                plain.value(x, &mut wp).unwrap(),
+            );
+            assert_eq!(vn.to_bits(), vp.to_bits(), "U alone at {x:?}");
+            let mut fs = [Scalar(0.0); 3];
+            let xs = x.map(Scalar);
+            let us = native
+                .force(&xs, &mut fs, true, &mut native.workspace())
+                .unwrap();
+            assert_eq!(us.0.to_bits(), vp.to_bits());
         }
     }
 
