@@ -215,7 +215,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 sums = self.observe_state()?;
             }
             self.careful(e, sums, true)?;
-            if !self.active.is_empty() && (e % control.every == 0) && !(control.report)(e) {
+            if !self.active.is_empty() && e.is_multiple_of(control.every) && !(control.report)(e) {
                 self.interrupt(e);
             }
             n = e + 1;
@@ -425,7 +425,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             self.update_extremes(main, blocks, self.active);
         }
         if event {
-            let sampling = i == 0 || self.record.save_every.is_some_and(|s| i % s == 0);
+            let sampling = i == 0 || self.record.save_every.is_some_and(|s| i.is_multiple_of(s));
             for b in self.active.iter() {
                 let ends = self.lanes[b].n_steps == i;
                 if ends || sampling {

@@ -124,6 +124,17 @@ pub trait Real:
     /// `f(x, y)` lane by lane.
     fn map2(self, other: Self, f: fn(f64, f64) -> f64) -> Self;
 
+    /// The numbers as plain `f64`s when a value is one `f64` (one lane), for machine code that
+    /// reads and writes them in place; None for bundles.
+    #[inline(always)]
+    fn as_f64s(_x: &[Self]) -> Option<&[f64]> {
+        None
+    }
+    #[inline(always)]
+    fn as_f64s_mut(_x: &mut [Self]) -> Option<&mut [f64]> {
+        None
+    }
+
     #[inline(always)]
     fn zero() -> Self {
         Self::splat(0.0)
@@ -184,6 +195,14 @@ impl Real for f64 {
     #[inline(always)]
     fn map2(self, other: Self, f: fn(f64, f64) -> f64) -> Self {
         f(self, other)
+    }
+    #[inline(always)]
+    fn as_f64s(x: &[Self]) -> Option<&[f64]> {
+        Some(x)
+    }
+    #[inline(always)]
+    fn as_f64s_mut(x: &mut [Self]) -> Option<&mut [f64]> {
+        Some(x)
     }
 }
 
@@ -296,6 +315,16 @@ impl Real for Scalar {
     #[inline(always)]
     fn map2(self, other: Self, f: fn(f64, f64) -> f64) -> Self {
         Scalar(f(self.0, other.0))
+    }
+    #[inline(always)]
+    fn as_f64s(x: &[Self]) -> Option<&[f64]> {
+        // SAFETY: Scalar is repr(transparent) over f64.
+        Some(unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f64>(), x.len()) })
+    }
+    #[inline(always)]
+    fn as_f64s_mut(x: &mut [Self]) -> Option<&mut [f64]> {
+        // SAFETY: Scalar is repr(transparent) over f64; the borrow is handed on.
+        Some(unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f64>(), x.len()) })
     }
 }
 

@@ -1,6 +1,6 @@
 //! Native code for a scheduled [`Code`]: the straight-line program compiled by Cranelift into
-//! one machine function `f(x, out)` that reads the inputs from `x` and writes the force slots,
-//! then U, to `out`.
+//! one machine function `f(x, force, value)` that reads the inputs from `x` and writes the
+//! force components to `force` and U to `value` (those the code computes).
 //!
 //! A register machine that dispatches per instruction costs 2–3 ns an instruction for one
 //! trajectory, several times the arithmetic (see docs/design.md); the compiled function keeps
@@ -19,13 +19,14 @@ use cranelift_module::{default_libcall_names, Linkage, Module};
 
 use super::program::{Binary, Code, Instr, Unary};
 
-/// A compiled code: `call(x, out)` with `x.len() == n_inputs` and `out` holding the force
-/// slots and then U (as many as the code computes).
+type Function = unsafe extern "C" fn(*const f64, *mut f64, *mut f64);
+
+/// A compiled code: `call(x, force, value)`.
 #[derive(Clone)]
 pub struct Compiled {
-    function: unsafe extern "C" fn(*const f64, *mut f64),
+    function: Function,
     n_inputs: usize,
-    n_outputs: usize,
+    n_force: usize,
     /// Owns the executable memory `function` points into.
     _module: Arc<ModuleOwner>,
 }
@@ -39,18 +40,19 @@ unsafe impl Sync for ModuleOwner {}
 
 impl std::fmt::Debug for Compiled {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Compiled({} → {})", self.n_inputs, self.n_outputs)
+        write!(f, "Compiled({} → {})", self.n_inputs, self.n_force)
     }
 }
 
 impl Compiled {
-    /// Runs the function: `out[..]` gets the force components, then U.
+    /// Runs the function: `force` gets the force components (when the code computes them),
+    /// `value` gets U (when it computes it; left alone otherwise).
     #[inline(always)]
-    pub fn call(&self, x: &[f64], out: &mut [f64]) {
-        assert!(x.len() >= self.n_inputs && out.len() >= self.n_outputs);
-        // SAFETY: the function reads n_inputs doubles from x and writes n_outputs to out,
-        // both checked just above; it touches no other memory.
-        unsafe { (self.function)(x.as_ptr(), out.as_mut_ptr()) }
+    pub fn call(&self, x: &[f64], force: &mut [f64], value: &mut f64) {
+        assert!(x.len() >= self.n_inputs && force.len() >= self.n_force);
+        // SAFETY: the function reads n_inputs doubles from x, writes n_force to force and at
+        // most one to value, all checked just above; it touches no other memory.
+        unsafe { (self.function)(x.as_ptr(), force.as_mut_ptr(), value) }
     }
 }
 
@@ -105,7 +107,7 @@ pub fn compile(codes: &[&Code]) -> Option<Vec<Compiled>> {
     let mut fctx = FunctionBuilderContext::new();
     for (k, code) in codes.iter().enumerate() {
         let mut sig = module.make_signature();
-        sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr)]);
+        sig.params.extend([AbiParam::new(ptr); 3]);
         let id = module
             .declare_function(&format!("code{k}"), Linkage::Local, &sig)
             .ok()?;
@@ -131,26 +133,15 @@ pub fn compile(codes: &[&Code]) -> Option<Vec<Compiled>> {
             .iter()
             .zip(functions)
             .map(|(code, f)| Compiled {
-                // SAFETY: the function was defined above with the signature (ptr, ptr) -> ().
-                function: unsafe {
-                    std::mem::transmute::<*const u8, unsafe extern "C" fn(*const f64, *mut f64)>(f)
-                },
+                // SAFETY: the function was defined above with the signature
+                // (ptr, ptr, ptr) -> () of the platform's C convention.
+                function: unsafe { std::mem::transmute::<*const u8, Function>(f) },
                 n_inputs: code.n_inputs,
-                n_outputs: outputs(code).len(),
+                n_force: code.force.as_ref().map_or(0, Vec::len),
                 _module: owner.clone(),
             })
             .collect(),
     )
-}
-
-/// The slots written to `out`, in order: the force components, then U.
-fn outputs(code: &Code) -> Vec<u32> {
-    code.force
-        .iter()
-        .flatten()
-        .copied()
-        .chain(code.value)
-        .collect()
 }
 
 fn emit(code: &Code, mut b: FunctionBuilder<'_>, module: &JITModule) {
@@ -158,7 +149,10 @@ fn emit(code: &Code, mut b: FunctionBuilder<'_>, module: &JITModule) {
     let entry = b.create_block();
     b.append_block_params_for_function_params(entry);
     b.switch_to_block(entry);
-    let (x, out) = (b.block_params(entry)[0], b.block_params(entry)[1]);
+    let (x, force, value) = {
+        let p = b.block_params(entry);
+        (p[0], p[1], p[2])
+    };
     let mem = MemFlagsData::trusted();
     let mut call_sig = |args: usize| {
         let mut s = Signature::new(module.isa().default_call_conv());
@@ -204,8 +198,11 @@ fn emit(code: &Code, mut b: FunctionBuilder<'_>, module: &JITModule) {
         };
         slot.push(r);
     }
-    for (k, s) in outputs(code).into_iter().enumerate() {
-        b.ins().store(mem, slot[s as usize], out, (8 * k) as i32);
+    for (k, &s) in code.force.iter().flatten().enumerate() {
+        b.ins().store(mem, slot[s as usize], force, (8 * k) as i32);
+    }
+    if let Some(s) = code.value {
+        b.ins().store(mem, slot[s as usize], value, 0);
     }
     b.ins().return_(&[]);
     b.seal_all_blocks();

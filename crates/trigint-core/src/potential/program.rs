@@ -645,14 +645,11 @@ pub struct Program {
     native: Option<Vec<Compiled>>,
 }
 
-/// Register files of the three codes, constants in place, and the in/out buffers of the
-/// machine code.
+/// Register files of the three codes, constants in place.
 pub struct ProgramWorkspace<L> {
     full: Vec<L>,
     force_only: Vec<L>,
     value_only: Vec<L>,
-    input: Vec<f64>,
-    output: Vec<f64>,
 }
 
 impl Program {
@@ -824,7 +821,7 @@ impl Program {
         let r = &mut registers[which];
         // Σ_b V(y_b) in the fixed order of the kernels' sums: term b into partial sum b mod 8,
         // the partial sums combined by `energy::tree` (eight independent chains, not one).
-        debug_assert!(tile % 8 == 0);
+        debug_assert!(tile.is_multiple_of(8));
         let mut parts = [L::zero(); 8];
         for start in (0..y.len()).step_by(tile) {
             let width = tile.min(y.len() - start);
@@ -860,29 +857,18 @@ impl Program {
         self.force_only.instrs.len()
     }
 
-    /// One trajectory through machine code `which` (0: U and g, 1: g, 2: U); None when there
-    /// is none or `x` holds several lanes.
+    /// One trajectory through machine code `which` (0: U and g, 1: g, 2: U), reading x and
+    /// writing the force in place; None when there is none or the numbers are bundles.
     #[inline(always)]
-    fn eval_native<L: Real>(
-        &self,
-        which: usize,
-        ws: &mut ProgramWorkspace<L>,
-        x: &[L],
-        force: Option<&mut [L]>,
-    ) -> Option<L> {
-        let f = self.native.as_ref().filter(|_| L::LANES == 1)?;
-        for (dst, v) in ws.input.iter_mut().zip(x) {
-            *dst = v.lane(0);
+    fn eval_native<L: Real>(&self, which: usize, x: &[L], force: Option<&mut [L]>) -> Option<L> {
+        let f = &self.native.as_ref()?[which];
+        let x = L::as_f64s(x)?;
+        let mut u = 0.0;
+        match force {
+            Some(g) => f.call(x, L::as_f64s_mut(g)?, &mut u),
+            None => f.call(x, &mut [], &mut u),
         }
-        f[which].call(&ws.input, &mut ws.output);
-        let mut k = 0;
-        if let Some(force) = force {
-            for g in force.iter_mut() {
-                *g = L::splat(ws.output[k]);
-                k += 1;
-            }
-        }
-        Some(L::splat(if which == 1 { 0.0 } else { ws.output[k] }))
+        Some(L::splat(u))
     }
 
     #[inline(always)]
@@ -910,8 +896,6 @@ impl Potential for Program {
             full: self.full.registers(),
             force_only: self.force_only.registers(),
             value_only: self.value_only.registers(),
-            input: vec![0.0; self.n],
-            output: vec![0.0; self.n + 1],
         }
     }
 
@@ -923,7 +907,7 @@ impl Potential for Program {
         with_value: bool,
         ws: &mut ProgramWorkspace<L>,
     ) -> CoreResult<L> {
-        if let Some(u) = self.eval_native(if with_value { 0 } else { 1 }, ws, x, Some(force)) {
+        if let Some(u) = self.eval_native(if with_value { 0 } else { 1 }, x, Some(force)) {
             return Ok(u);
         }
         Ok(if with_value {
@@ -935,7 +919,7 @@ impl Potential for Program {
 
     #[inline(always)]
     fn value<L: Real>(&self, x: &[L], ws: &mut ProgramWorkspace<L>) -> CoreResult<L> {
-        if let Some(u) = self.eval_native(2, ws, x, None) {
+        if let Some(u) = self.eval_native(2, x, None) {
             return Ok(u);
         }
         Ok(Self::eval(&self.value_only, &mut ws.value_only, x, None))
