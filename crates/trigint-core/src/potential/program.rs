@@ -11,6 +11,7 @@
 //! libm call) for every lane, so every lane gets the bits of a single-trajectory evaluation.
 
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 use super::jit::{self, Compiled};
 use super::linear::LinearMap;
@@ -639,10 +640,11 @@ pub struct Program {
     full: Code,
     force_only: Code,
     value_only: Code,
-    /// The three codes as machine code, for one trajectory at a time (None: interpreted,
-    /// with the same bits). Bundles of lanes run the interpreter, whose every instruction is
-    /// one loop over the lanes.
-    native: Option<Vec<Compiled>>,
+    /// The three codes as machine code, for one trajectory at a time, compiled at the first
+    /// one-trajectory evaluation (≈ 1 ms; bundles and chains never ask for it). None inside:
+    /// interpreted, with the same bits. Bundles of lanes run the interpreter, whose every
+    /// instruction is one loop over the lanes.
+    native: OnceLock<Option<Vec<Compiled>>>,
 }
 
 /// Register files of the three codes, constants in place.
@@ -770,26 +772,34 @@ impl Program {
             Code::schedule(&g, n, None, Some(force)),
             Code::schedule(&g, n, Some(value), None),
         );
-        let native = jit::compile(&[&full, &force_only, &value_only]);
         Ok(Program {
             n,
             full,
             force_only,
             value_only,
-            native,
+            native: OnceLock::new(),
         })
     }
 
     /// The same program without machine code: every evaluation interpreted (for comparing the
     /// two, and where compiling is not wanted).
-    pub fn interpreted(mut self) -> Self {
-        self.native = None;
-        self
+    pub fn interpreted(self) -> Self {
+        Program {
+            native: OnceLock::from(None),
+            ..self
+        }
     }
 
-    /// Whether one-trajectory evaluations run machine code.
+    /// The machine code of the three codes, compiled on first use (None: interpreted).
+    fn machine_code(&self) -> Option<&[Compiled]> {
+        self.native
+            .get_or_init(|| jit::compile(&[&self.full, &self.force_only, &self.value_only]))
+            .as_deref()
+    }
+
+    /// Whether one-trajectory evaluations run machine code (compiling it if not yet done).
     pub fn is_native(&self) -> bool {
-        self.native.is_some()
+        self.machine_code().is_some()
     }
 
     /// Register files for [`eval_tiles`](Self::eval_tiles): one per code.
@@ -861,8 +871,8 @@ impl Program {
     /// writing the force in place; None when there is none or the numbers are bundles.
     #[inline(always)]
     fn eval_native<L: Real>(&self, which: usize, x: &[L], force: Option<&mut [L]>) -> Option<L> {
-        let f = &self.native.as_ref()?[which];
         let x = L::as_f64s(x)?;
+        let f = &self.machine_code()?[which];
         let mut u = 0.0;
         match force {
             Some(g) => f.call(x, L::as_f64s_mut(g)?, &mut u),
