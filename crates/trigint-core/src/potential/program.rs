@@ -9,6 +9,8 @@
 //! straight-line programs are scheduled: U with g, g alone, and U alone. An evaluation runs one of
 //! them over numbers of any lane width: each instruction is the same IEEE operation (or the same
 //! libm call) for every lane, so every lane gets the bits of a single-trajectory evaluation.
+//! One trajectory at a time runs the same codes as machine code (`jit.rs`), with the
+//! same bits.
 
 use std::collections::HashMap;
 use std::sync::OnceLock;
