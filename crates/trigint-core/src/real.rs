@@ -124,8 +124,9 @@ pub trait Real:
     /// `f(x, y)` lane by lane.
     fn map2(self, other: Self, f: fn(f64, f64) -> f64) -> Self;
 
-    /// The numbers as plain `f64`s when a value is one `f64` (one lane), for machine code that
-    /// reads and writes them in place; None for bundles.
+    /// The numbers as plain `f64`s, lane b of value i at `i * LANES + b`, for machine code that
+    /// reads and writes them in place; None where a value holds padding (a bundle whose lanes
+    /// do not fill its 64-byte alignment).
     #[inline(always)]
     fn as_f64s(_x: &[Self]) -> Option<&[f64]> {
         None
@@ -470,6 +471,19 @@ impl<const W: usize> Real for Lanes<W> {
             r[b] = f(self.0[b], other.0[b]);
         }
         Lanes(r)
+    }
+    #[inline(always)]
+    fn as_f64s(x: &[Self]) -> Option<&[f64]> {
+        // SAFETY: Lanes is repr(C) over [f64; W]; without padding, n values are n·W doubles.
+        (std::mem::size_of::<Self>() == 8 * W)
+            .then(|| unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f64>(), x.len() * W) })
+    }
+    #[inline(always)]
+    fn as_f64s_mut(x: &mut [Self]) -> Option<&mut [f64]> {
+        // SAFETY: as above; the borrow is handed on.
+        (std::mem::size_of::<Self>() == 8 * W).then(|| unsafe {
+            std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f64>(), x.len() * W)
+        })
     }
 }
 

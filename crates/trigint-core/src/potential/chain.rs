@@ -82,6 +82,7 @@ impl Chain {
 pub struct ChainWorkspace<L> {
     y: Vec<Vec<L>>,
     g: Vec<Vec<L>>,
+    values: Vec<Vec<L>>,
     registers: Vec<Vec<Vec<L>>>,
 }
 
@@ -105,6 +106,11 @@ impl Potential for Chain {
                 .iter()
                 .map(|t| vec![L::zero(); t.map.rows])
                 .collect(),
+            values: self
+                .terms
+                .iter()
+                .map(|t| vec![L::zero(); t.map.rows])
+                .collect(),
             registers: self
                 .terms
                 .iter()
@@ -121,15 +127,20 @@ impl Potential for Chain {
         with_value: bool,
         ws: &mut ChainWorkspace<L>,
     ) -> CoreResult<L> {
-        force[..self.n].fill(L::zero());
         let mut value = L::zero();
         for (t, term) in self.terms.iter().enumerate() {
             let (y, g) = (&mut ws.y[t], &mut ws.g[t]);
             term.map.apply(x, y);
-            value += term
-                .v
-                .eval_tiles(y, Some(g), with_value, &mut ws.registers[t], TILE);
-            term.map.apply_transpose_add(g, force);
+            value += term.v.eval_tiles(
+                y,
+                Some(g),
+                with_value,
+                &mut ws.registers[t],
+                &mut ws.values[t],
+                TILE,
+            );
+            // The first term writes the force, the others add to it.
+            term.map.apply_transpose(g, force, t > 0);
         }
         Ok(value)
     }
@@ -140,7 +151,9 @@ impl Potential for Chain {
         for (t, term) in self.terms.iter().enumerate() {
             let y = &mut ws.y[t];
             term.map.apply(x, y);
-            value += term.v.eval_tiles(y, None, true, &mut ws.registers[t], TILE);
+            value +=
+                term.v
+                    .eval_tiles(y, None, true, &mut ws.registers[t], &mut ws.values[t], TILE);
         }
         Ok(value)
     }
@@ -174,6 +187,93 @@ mod tests {
             }
             let v = chain.value(&x, &mut chain.workspace()).unwrap();
             assert_eq!(v.to_bits(), u1.to_bits());
+        }
+    }
+}
+
+#[cfg(test)]
+mod machine_code {
+    use super::*;
+    use crate::real::Lanes;
+
+    /// V(y) = exp(−y²) cos(3y) + |y|^1.5 sign(y) + y⁴/4 over springs y_b = x_b − x_{b+1}.
+    fn chain(native: bool) -> Chain {
+        let v = ProgramSpec {
+            n_inputs: 1,
+            ops: vec![
+                Op::Input(0),
+                Op::Powi(0, 2),
+                Op::Neg(1),
+                Op::Exp(2),
+                Op::Const(3.0),
+                Op::Mul(4, 0),
+                Op::Cos(5),
+                Op::Mul(3, 6),
+                Op::Abs(0),
+                Op::Powf(8, 1.5),
+                Op::Sign(0),
+                Op::Mul(9, 10),
+                Op::Powi(0, 4),
+                Op::Const(0.25),
+                Op::Mul(13, 12),
+                Op::Add(7, 11),
+                Op::Add(15, 14),
+            ],
+            output: 16,
+        };
+        let n = 12;
+        let (ptr, cols, vals): (Vec<usize>, Vec<usize>, Vec<f64>) = (
+            (0..n).map(|r| 2 * r).collect(),
+            (0..n - 1).flat_map(|r| [r, r + 1]).collect(),
+            (0..n - 1).flat_map(|_| [1.0, -1.0]).collect(),
+        );
+        let map = LinearMap::from_csr(n - 1, n, &ptr, &cols, &vals).unwrap();
+        let mut term = ChainTerm::new(map, &v).unwrap();
+        if !native {
+            term.v = term.v.interpreted();
+        }
+        Chain::new(n, vec![term]).unwrap()
+    }
+
+    #[test]
+    fn springs_through_machine_code_have_the_interpreters_bits() {
+        // 11 springs: an odd count, so the last spring of one trajectory runs alone.
+        let (native, plain) = (chain(true), chain(false));
+        let x: Vec<f64> = (0..12).map(|i| 1.7 * (i as f64 * 0.83).sin()).collect();
+        for with_value in [true, false] {
+            let (mut fn_, mut fp) = (vec![0.0; 12], vec![0.0; 12]);
+            let un = native
+                .force(&x, &mut fn_, with_value, &mut native.workspace())
+                .unwrap();
+            let up = plain
+                .force(&x, &mut fp, with_value, &mut plain.workspace())
+                .unwrap();
+            assert_eq!(un.to_bits(), up.to_bits());
+            for i in 0..12 {
+                assert_eq!(fn_[i].to_bits(), fp[i].to_bits(), "force {i}");
+            }
+        }
+        let v = native.value(&x, &mut native.workspace()).unwrap();
+        let vp = plain.value(&x, &mut plain.workspace()).unwrap();
+        assert_eq!(v.to_bits(), vp.to_bits());
+        // Lanes: each lane equals its own trajectory.
+        let xl: Vec<Lanes<8>> = (0..12)
+            .map(|i| Lanes(std::array::from_fn(|b| x[i] * (1.0 + 0.1 * b as f64))))
+            .collect();
+        let mut fl = vec![Lanes::<8>::zero(); 12];
+        let ul = native
+            .force(&xl, &mut fl, true, &mut native.workspace())
+            .unwrap();
+        for b in 0..8 {
+            let xb: Vec<f64> = xl.iter().map(|v| v.0[b]).collect();
+            let mut fb = vec![0.0; 12];
+            let ub = plain
+                .force(&xb, &mut fb, true, &mut plain.workspace())
+                .unwrap();
+            assert_eq!(ul.0[b].to_bits(), ub.to_bits(), "lane {b}");
+            for i in 0..12 {
+                assert_eq!(fl[i].0[b].to_bits(), fb[i].to_bits(), "lane {b}, force {i}");
+            }
         }
     }
 }

@@ -15,7 +15,7 @@
 use std::collections::HashMap;
 use std::sync::OnceLock;
 
-use super::jit::{self, Compiled};
+use super::jit::{self, Compiled, Walk};
 use super::linear::LinearMap;
 use super::Potential;
 use crate::error::{CoreError, CoreResult};
@@ -634,6 +634,20 @@ impl Code {
     }
 }
 
+/// Term j of `v` into partial sum j mod 8 (`v` starts at a multiple of 8).
+#[inline(always)]
+fn add_in_eights<L: Real>(parts: &mut [L; 8], v: &[L]) {
+    let mut chunks = v.chunks_exact(8);
+    for c in &mut chunks {
+        for t in 0..8 {
+            parts[t] += c[t];
+        }
+    }
+    for (t, x) in chunks.remainder().iter().enumerate() {
+        parts[t] += *x;
+    }
+}
+
 /// A potential compiled from a tape: U and its exact force −∇U.
 #[derive(Debug, Clone)]
 pub struct Program {
@@ -642,12 +656,22 @@ pub struct Program {
     full: Code,
     force_only: Code,
     value_only: Code,
-    /// The three codes as machine code, for one trajectory at a time, compiled at the first
-    /// one-trajectory evaluation (≈ 1 ms; bundles and chains never ask for it). None inside:
-    /// interpreted, with the same bits. Bundles of lanes run the interpreter, whose every
-    /// instruction is one loop over the lanes.
-    native: OnceLock<Option<Vec<Compiled>>>,
+    /// The three codes as machine code, each compiled at its first use (≈ 1 ms): for one
+    /// trajectory; for bundles of 2, 4, …, 256 lanes (index log₂ W − 1); and, for a
+    /// one-coordinate program, over many arguments (a chain's springs). None inside: that
+    /// walk is interpreted, with the same bits.
+    machine: Box<MachineCode>,
 }
+
+#[derive(Debug, Clone, Default)]
+struct MachineCode {
+    one: OnceLock<Option<Vec<Compiled>>>,
+    bundles: [OnceLock<Option<Vec<Compiled>>>; BUNDLE_WIDTHS],
+    over_arguments: OnceLock<Option<Vec<Compiled>>>,
+}
+
+/// Bundle widths with machine code: 2¹ … 2⁸ (= MAX_LANES) lanes.
+const BUNDLE_WIDTHS: usize = 8;
 
 /// Register files of the three codes, constants in place.
 pub struct ProgramWorkspace<L> {
@@ -779,7 +803,7 @@ impl Program {
             full,
             force_only,
             value_only,
-            native: OnceLock::new(),
+            machine: Box::default(),
         })
     }
 
@@ -787,15 +811,48 @@ impl Program {
     /// two, and where compiling is not wanted).
     pub fn interpreted(self) -> Self {
         Program {
-            native: OnceLock::from(None),
+            machine: Box::new(MachineCode {
+                one: OnceLock::from(None),
+                bundles: std::array::from_fn(|_| OnceLock::from(None)),
+                over_arguments: OnceLock::from(None),
+            }),
             ..self
         }
     }
 
-    /// The machine code of the three codes, compiled on first use (None: interpreted).
+    fn compile(&self, walk: Walk) -> Option<Vec<Compiled>> {
+        jit::compile(&[&self.full, &self.force_only, &self.value_only], walk)
+    }
+
+    /// The machine code of the three codes for one trajectory, compiled on first use (None:
+    /// interpreted).
     fn machine_code(&self) -> Option<&[Compiled]> {
-        self.native
-            .get_or_init(|| jit::compile(&[&self.full, &self.force_only, &self.value_only]))
+        self.machine
+            .one
+            .get_or_init(|| self.compile(Walk::One))
+            .as_deref()
+    }
+
+    /// The machine code for bundles of `width` lanes (a power of two from 2 to 256).
+    fn bundle_code(&self, width: usize) -> Option<&[Compiled]> {
+        if !width.is_power_of_two() || width < 2 {
+            return None;
+        }
+        self.machine
+            .bundles
+            .get(width.trailing_zeros() as usize - 1)?
+            .get_or_init(|| self.compile(Walk::Pairs { stride: width }))
+            .as_deref()
+    }
+
+    /// The machine code of a one-coordinate program over many arguments.
+    fn argument_code(&self) -> Option<&[Compiled]> {
+        if self.n != 1 {
+            return None;
+        }
+        self.machine
+            .over_arguments
+            .get_or_init(|| self.compile(Walk::Pairs { stride: 0 }))
             .as_deref()
     }
 
@@ -822,6 +879,7 @@ impl Program {
         mut g: Option<&mut [L]>,
         with_value: bool,
         registers: &mut [Vec<L>],
+        values: &mut [L],
         tile: usize,
     ) -> L {
         let which = match (g.is_some(), with_value) {
@@ -829,6 +887,9 @@ impl Program {
             (true, false) => 1,
             _ => 2,
         };
+        if let Some(parts) = self.eval_arguments_native(which, y, g.as_deref_mut(), values) {
+            return crate::energy::tree(&parts, y.len().min(8));
+        }
         let code = [&self.full, &self.force_only, &self.value_only][which];
         let r = &mut registers[which];
         // Σ_b V(y_b) in the fixed order of the kernels' sums: term b into partial sum b mod 8,
@@ -844,19 +905,43 @@ impl Program {
                 g[start..start + width].copy_from_slice(&r[s..s + width]);
             }
             if let (true, Some(s)) = (with_value, code.value) {
-                let v = &r[s as usize * tile..][..width];
-                let mut chunks = v.chunks_exact(8);
-                for c in &mut chunks {
-                    for t in 0..8 {
-                        parts[t] += c[t];
-                    }
-                }
-                for (t, x) in chunks.remainder().iter().enumerate() {
-                    parts[t] += *x;
-                }
+                add_in_eights(&mut parts, &r[s as usize * tile..][..width]);
             }
         }
         crate::energy::tree(&parts, y.len().min(8))
+    }
+
+    /// [`eval_tiles`](Self::eval_tiles) through machine code over all arguments at once (the
+    /// last one alone when their number of doubles is odd): V into `values`, −V' into `g`;
+    /// returns the eight partial sums of V. None when there is no machine code.
+    #[inline(always)]
+    fn eval_arguments_native<L: Real>(
+        &self,
+        which: usize,
+        y: &[L],
+        g: Option<&mut [L]>,
+        values: &mut [L],
+    ) -> Option<[L; 8]> {
+        let yf = L::as_f64s(y)?;
+        let pairs = &self.argument_code()?[which];
+        let one = &self.machine_code()?[which];
+        let vf = L::as_f64s_mut(&mut values[..y.len()])?;
+        let mut none: [f64; 0] = [];
+        let gf = match g {
+            Some(g) => L::as_f64s_mut(&mut g[..y.len()])?,
+            None => &mut none[..],
+        };
+        let (n, even) = (yf.len(), yf.len() & !1);
+        pairs.call_pairs(yf, gf, vf, even);
+        if n > even {
+            let tail = if gf.is_empty() { gf } else { &mut gf[even..] };
+            one.call(&yf[even..], tail, &mut vf[even]);
+        }
+        let mut parts = [L::zero(); 8];
+        if which != 1 {
+            add_in_eights(&mut parts, &values[..y.len()]);
+        }
+        Some(parts)
     }
 
     /// The code that computes U and g (for inspection, tests and code generation).
@@ -869,18 +954,30 @@ impl Program {
         self.force_only.instrs.len()
     }
 
-    /// One trajectory through machine code `which` (0: U and g, 1: g, 2: U), reading x and
-    /// writing the force in place; None when there is none or the numbers are bundles.
+    /// One trajectory or one bundle through machine code `which` (0: U and g, 1: g, 2: U),
+    /// reading x and writing the force in place; None when there is none for these numbers.
     #[inline(always)]
     fn eval_native<L: Real>(&self, which: usize, x: &[L], force: Option<&mut [L]>) -> Option<L> {
-        let x = L::as_f64s(x)?;
-        let f = &self.machine_code()?[which];
-        let mut u = 0.0;
-        match force {
-            Some(g) => f.call(x, L::as_f64s_mut(g)?, &mut u),
-            None => f.call(x, &mut [], &mut u),
+        let xf = L::as_f64s(&x[..self.n])?;
+        let mut none: [f64; 0] = [];
+        let gf = match force {
+            Some(g) => L::as_f64s_mut(&mut g[..self.n])?,
+            None => &mut none[..],
+        };
+        if L::LANES == 1 {
+            let mut u = 0.0;
+            self.machine_code()?[which].call(xf, gf, &mut u);
+            return Some(L::splat(u));
         }
-        Some(L::splat(u))
+        let f = &self.bundle_code(L::LANES)?[which];
+        let mut u = L::zero();
+        f.call_pairs(
+            xf,
+            gf,
+            L::as_f64s_mut(std::slice::from_mut(&mut u))?,
+            L::LANES,
+        );
+        Some(u)
     }
 
     #[inline(always)]
@@ -1163,6 +1260,35 @@ mod tests {
                 .unwrap();
             assert_eq!(us.0.to_bits(), vp.to_bits());
         }
+        // Bundles run machine code over lane pairs: each lane has the interpreter's bits.
+        fn bundles<const W: usize>(native: &Program, plain: &Program, points: &[[f64; 3]]) {
+            let mut ws = native.workspace::<Lanes<W>>();
+            for chunk in points.chunks_exact(W) {
+                let x: [Lanes<W>; 3] =
+                    std::array::from_fn(|i| Lanes(std::array::from_fn(|b| chunk[b][i])));
+                let mut f = [Lanes::<W>::zero(); 3];
+                let u = native.force(&x, &mut f, true, &mut ws).unwrap();
+                let mut g = [Lanes::<W>::zero(); 3];
+                native.force(&x, &mut g, false, &mut ws).unwrap();
+                let v = native.value(&x, &mut ws).unwrap();
+                for (b, p) in chunk.iter().enumerate() {
+                    let mut fp = [0.0; 3];
+                    let up = plain
+                        .force(p, &mut fp, true, &mut plain.workspace())
+                        .unwrap();
+                    assert_eq!(u.0[b].to_bits(), up.to_bits(), "U, lane {b} of {W}");
+                    assert_eq!(v.0[b].to_bits(), up.to_bits(), "U alone, lane {b} of {W}");
+                    for i in 0..3 {
+                        assert_eq!(f[i].0[b].to_bits(), fp[i].to_bits(), "force {i}, lane {b}");
+                        assert_eq!(g[i].0[b].to_bits(), fp[i].to_bits(), "force {i}, lane {b}");
+                    }
+                }
+            }
+        }
+        bundles::<2>(&native, &plain, &points);
+        bundles::<8>(&native, &plain, &points);
+        bundles::<3>(&native, &plain, &points);
+        assert!(native.bundle_code(8).is_some() && native.bundle_code(3).is_none());
     }
 
     #[test]
