@@ -2,9 +2,10 @@
 //!
 //! The common potentials of this field have this shape: springs (FPU, Toda, Morse, Lennard-Jones
 //! between neighbours) and on-site terms. Each term is a univariate [`Program`] V (with its
-//! exact derivative) and a [`LinearMap`] L. An evaluation computes y = L q in vectorizable passes,
-//! runs V over tiles of springs (each instruction over a whole tile, so the interpretation costs
-//! little per spring), sums V in spring order and adds Lᵀ(−V'(y)) to the force.
+//! exact derivative) and a [`LinearMap`] L. An evaluation computes y = L q band by band, runs V
+//! and −V' over all springs in one machine-code loop (or, without machine code, interpreted over
+//! tiles of springs, each instruction over a whole tile), sums V in spring order into eight
+//! partial sums and applies Lᵀ(−V'(y)) to the force.
 
 use super::linear::LinearMap;
 use super::program::{Op, Program, ProgramSpec};
