@@ -1,6 +1,7 @@
 //! Native code for a scheduled [`Code`]: the straight-line program compiled by Cranelift into
-//! one machine function `f(x, force, value)` that reads the inputs from `x` and writes the
-//! force components to `force` and U to `value` (those the code computes).
+//! one machine function `f(x, force, value, count)` that reads the inputs from `x` and writes
+//! the force components to `force` and U to `value` (those the code computes), once or over
+//! `count` evaluations two at a time ([`Walk`]).
 //!
 //! A register machine that dispatches per instruction costs 2–3 ns an instruction for one
 //! trajectory, several times the arithmetic (see docs/design.md); the compiled function keeps

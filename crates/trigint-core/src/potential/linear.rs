@@ -74,6 +74,7 @@ fn diagonal(s: &Segment) -> bool {
 }
 
 impl Segment {
+    /// The coefficient as a number.
     fn coef_value(&self) -> f64 {
         match self.coef {
             SegmentCoef::Plus => 1.0,
@@ -286,12 +287,7 @@ impl LinearMap {
         let mut out = Vec::new();
         for s in &self.segments {
             for k in 0..s.len {
-                let v = match s.coef {
-                    SegmentCoef::Plus => 1.0,
-                    SegmentCoef::Minus => -1.0,
-                    SegmentCoef::Scalar(c) => c,
-                };
-                out.push((s.row + k, s.column(k), v));
+                out.push((s.row + k, s.column(k), s.coef_value()));
             }
         }
         out

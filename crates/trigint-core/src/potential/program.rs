@@ -9,8 +9,8 @@
 //! straight-line programs are scheduled: U with g, g alone, and U alone. An evaluation runs one of
 //! them over numbers of any lane width: each instruction is the same IEEE operation (or the same
 //! libm call) for every lane, so every lane gets the bits of a single-trajectory evaluation.
-//! One trajectory at a time runs the same codes as machine code (`jit.rs`), with the
-//! same bits.
+//! One trajectory, bundles of 2ᵏ lanes and a one-variable program over many arguments run the
+//! same codes as machine code (`jit.rs`), with the same bits.
 
 use std::collections::HashMap;
 use std::sync::OnceLock;
@@ -924,7 +924,6 @@ impl Program {
     ) -> Option<[L; 8]> {
         let yf = L::as_f64s(y)?;
         let pairs = &self.argument_code()?[which];
-        let one = &self.machine_code()?[which];
         let vf = L::as_f64s_mut(&mut values[..y.len()])?;
         let mut none: [f64; 0] = [];
         let gf = match g {
@@ -934,6 +933,9 @@ impl Program {
         let (n, even) = (yf.len(), yf.len() & !1);
         pairs.call_pairs(yf, gf, vf, even);
         if n > even {
+            // Compiled only for an odd count (bundles of 8 lanes never need it); where it
+            // compiles, the pairs did too.
+            let one = &self.machine_code()?[which];
             let tail = if gf.is_empty() { gf } else { &mut gf[even..] };
             one.call(&yf[even..], tail, &mut vf[even]);
         }
