@@ -61,9 +61,18 @@ impl LaneSet {
         self.0.iter().all(|&w| w == 0)
     }
 
-    /// The lanes in the set, in increasing order.
+    /// The lanes in the set, in increasing order (word by word, bit by bit: the cost is the
+    /// number of lanes in the set, not the size of the set).
     pub fn iter(self) -> impl Iterator<Item = usize> {
-        (0..MAX_LANES).filter(move |&b| self.contains(b))
+        self.0.into_iter().enumerate().flat_map(|(w, mut bits)| {
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    64 * w + b
+                })
+            })
+        })
     }
 }
 
@@ -532,7 +541,7 @@ mod tests {
 
     #[test]
     fn lane_sets_hold_every_lane_of_the_widest_bundle() {
-        for count in [0, 1, 63, 64, 65, 200, MAX_LANES] {
+        for count in [0, 1, 63, 64, 65, 200, 255, MAX_LANES] {
             let s = LaneSet::first(count);
             assert_eq!(s.iter().collect::<Vec<_>>(), (0..count).collect::<Vec<_>>());
         }

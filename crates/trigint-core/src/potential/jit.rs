@@ -14,15 +14,15 @@ use std::sync::Arc;
 
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::{
-    types, AbiParam, BlockArg, ConstantData, InstBuilder, MemFlagsData, Signature, Type,
-    UserFuncName, Value,
+    types, AbiParam, BlockArg, ConstantData, InstBuilder, MemFlagsData, Signature, StackSlotData,
+    StackSlotKind, Type, UserFuncName, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, Linkage, Module};
 
-use super::program::{Binary, Code, Instr, Unary};
+use super::program::{Binary, Code, Instr, Unary, SIN_COS_C};
 
 type Function = unsafe extern "C" fn(*const f64, *mut f64, *mut f64, usize);
 
@@ -316,7 +316,43 @@ fn emit_pass(code: &Code, b: &mut FunctionBuilder<'_>, module: &JITModule, at: &
         b.import_signature(s)
     };
     let (sig1, sig2) = (call_sig(1), call_sig(2));
+    let sig_sincos = {
+        let mut s = Signature::new(module.isa().default_call_conv());
+        s.params.extend([
+            AbiParam::new(types::F64),
+            AbiParam::new(ptr),
+            AbiParam::new(ptr),
+        ]);
+        b.import_signature(s)
+    };
+    let pair_slot =
+        b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3));
     let vector = at.ty != types::F64;
+    // (sin a, cos a) through a stack slot (two doubles come back in registers on some
+    // platforms, through a hidden pointer on others), per lane for a pair.
+    let sincos = |b: &mut FunctionBuilder<'_>, a: Value| -> (Value, Value) {
+        let f = b.ins().iconst(ptr, SIN_COS_C as *const () as i64);
+        let one = |b: &mut FunctionBuilder<'_>, a: Value| -> (Value, Value) {
+            let sin = b.ins().stack_addr(ptr, pair_slot, 0);
+            let cos = b.ins().stack_addr(ptr, pair_slot, 8);
+            b.ins().call_indirect(sig_sincos, f, &[a, sin, cos]);
+            (
+                b.ins().stack_load(ptr, types::F64, pair_slot, 0),
+                b.ins().stack_load(ptr, types::F64, pair_slot, 8),
+            )
+        };
+        if !vector {
+            return one(b, a);
+        }
+        let (a0, a1) = (b.ins().extractlane(a, 0), b.ins().extractlane(a, 1));
+        let (s0, c0) = one(b, a0);
+        let (s1, c1) = one(b, a1);
+        let (s, c) = (
+            b.ins().splat(types::F64X2, s0),
+            b.ins().splat(types::F64X2, c0),
+        );
+        (b.ins().insertlane(s, s1, 1), b.ins().insertlane(c, c1, 1))
+    };
     // f(a) or f(a, c) with f a C function of doubles: per lane for a pair.
     let call = |b: &mut FunctionBuilder<'_>, f: usize, a: Value, c: Option<f64>| -> Value {
         let f = b.ins().iconst(ptr, f as i64);
@@ -343,6 +379,7 @@ fn emit_pass(code: &Code, b: &mut FunctionBuilder<'_>, module: &JITModule, at: &
         slot.push(b.ins().load(at.ty, mem, at.x, at.row * i as i32));
     }
     slot.extend_from_slice(&at.constants);
+    let mut cos_next = None;
     for ins in &code.instrs {
         let v = |s: u32| slot[s as usize];
         let r = match *ins {
@@ -363,6 +400,12 @@ fn emit_pass(code: &Code, b: &mut FunctionBuilder<'_>, module: &JITModule, at: &
             Instr::Un(Unary::Abs, a) => b.ins().fabs(v(a)),
             Instr::Un(op, a) => call(b, callee(op) as usize, v(a), None),
             Instr::Powf(a, c) => call(b, c_powf as *const () as usize, v(a), Some(c)),
+            Instr::SinCos(a) => {
+                let (sin, cos) = sincos(b, v(a));
+                cos_next = Some(cos);
+                sin
+            }
+            Instr::Filled => cos_next.take().expect("a SinCos comes before"),
         };
         slot.push(r);
     }
