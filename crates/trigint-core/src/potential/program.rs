@@ -488,23 +488,28 @@ pub const SIN_COS_C: unsafe extern "C" fn(f64, *mut f64, *mut f64) = {
     two_calls
 };
 
-/// (sin x, cos x). With glibc one `sincos` call, whose results are bit for bit those of `sin`
-/// and `cos` (the same kernels after the same reduction; tested on 2·10⁸ arguments across the
-/// whole double range, and in this crate's tests), so a code that merges the two calls and one
-/// that does not compute the same bits. Elsewhere the two calls.
+/// (sin x, cos x) through [`SIN_COS_C`]. With glibc one `sincos` call, whose results are bit
+/// for bit those of `sin` and `cos` (the same kernels after the same reduction; tested on 2·10⁸
+/// arguments across the whole double range, and in this crate's tests), so a code that merges
+/// the two calls and one that does not compute the same bits. Elsewhere the two calls.
 #[inline]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        let (mut s, mut c) = (0.0, 0.0);
-        // SAFETY: sincos writes one double through each pointer, both valid locals.
-        unsafe { sincos(x, &mut s, &mut c) };
-        (s, c)
+    let (mut s, mut c) = (0.0, 0.0);
+    // SAFETY: SIN_COS_C writes one double through each pointer, both valid locals.
+    unsafe { SIN_COS_C(x, &mut s, &mut c) };
+    (s, c)
+}
+
+/// [`sin_cos`] lane by lane.
+#[inline(always)]
+fn sin_cos_lanes<L: Real>(x: L) -> (L, L) {
+    let (mut sin, mut cos) = (x, x);
+    for j in 0..L::LANES {
+        let (s, c) = sin_cos(x.lane(j));
+        sin.set_lane(j, s);
+        cos.set_lane(j, c);
     }
-    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
-    {
-        (x.sin(), x.cos())
-    }
+    (sin, cos)
 }
 
 /// A scheduled program: slots 0..n hold the inputs, then the constants, then one slot per
@@ -639,13 +644,7 @@ impl Code {
                     Instr::Un(op, a) => *out = get(a).map(op.scalar()),
                     Instr::Powf(a, c) => *out = get(a).map2(L::splat(c), f64::powf),
                     Instr::SinCos(a) => {
-                        let x = get(a);
-                        let (mut sin, mut cos) = (x, x);
-                        for j in 0..L::LANES {
-                            let (s, c) = sin_cos(x.lane(j));
-                            sin.set_lane(j, s);
-                            cos.set_lane(j, c);
-                        }
+                        let (sin, cos) = sin_cos_lanes(get(a));
                         *out = sin;
                         // base + k + 1 < r.len(): a Filled instruction follows every SinCos.
                         *out.add(1) = cos;
@@ -713,14 +712,7 @@ impl Code {
                     // The cos goes to the next slot (the Filled instruction's).
                     let (sin, cos) = rest.split_at_mut(tile);
                     for j in 0..width {
-                        let (mut s, mut c) = (x[j], x[j]);
-                        for l in 0..L::LANES {
-                            let (sl, cl) = sin_cos(x[j].lane(l));
-                            s.set_lane(l, sl);
-                            c.set_lane(l, cl);
-                        }
-                        sin[j] = s;
-                        cos[j] = c;
+                        (sin[j], cos[j]) = sin_cos_lanes(x[j]);
                     }
                 }
                 Instr::Filled => {}
@@ -1138,6 +1130,25 @@ mod tests {
     use crate::potential::Fpu;
     use crate::real::{Lanes, Scalar};
 
+    /// A xorshift generator of 64-bit words.
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
+    /// U = exp(x) cos(x).
+    fn exp_times_cos() -> ProgramSpec {
+        ProgramSpec {
+            n_inputs: 1,
+            ops: vec![Op::Input(0), Op::Exp(0), Op::Cos(0), Op::Mul(1, 2)],
+            output: 3,
+        }
+    }
+
     /// U = ¼ Σ (linear form)⁴ of the FPU chain, m = 3, as SymPy hands it over: each term
     /// x⁴/4 with the linear forms written with negations.
     pub(crate) fn fpu_tape(m: usize) -> ProgramSpec {
@@ -1317,13 +1328,8 @@ mod tests {
         assert!(native.is_native(), "no machine code on this host");
         let plain = native.clone().interpreted();
         let (mut wn, mut wp) = (native.workspace::<f64>(), plain.workspace::<f64>());
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
+        let mut uniform = || (next() >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0;
         let mut points: Vec<[f64; 3]> = (0..500)
             .map(|_| [uniform(), uniform(), uniform()])
             .collect();
@@ -1390,13 +1396,7 @@ mod tests {
 
     #[test]
     fn sin_cos_has_the_bits_of_sin_and_cos() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         let mut xs = vec![
             0.0,
             -0.0,
@@ -1430,12 +1430,7 @@ mod tests {
     #[test]
     fn sin_and_cos_of_one_argument_share_a_call_with_unchanged_bits() {
         // U = exp(x) cos(x): U and g need cos x and sin x (one SinCos), U alone only cos x.
-        let spec = ProgramSpec {
-            n_inputs: 1,
-            ops: vec![Op::Input(0), Op::Exp(0), Op::Cos(0), Op::Mul(1, 2)],
-            output: 3,
-        };
-        let native = Program::new(&spec, None).unwrap();
+        let native = Program::new(&exp_times_cos(), None).unwrap();
         let merged = |c: &Code| c.instrs.iter().any(|i| matches!(i, Instr::SinCos(_)));
         assert!(merged(&native.full) && merged(&native.force_only) && !merged(&native.value_only));
         let plain = native.clone().interpreted();
@@ -1458,12 +1453,7 @@ mod tests {
 
     #[test]
     fn lanes_give_each_trajectory_its_bits() {
-        let spec = ProgramSpec {
-            n_inputs: 1,
-            ops: vec![Op::Input(0), Op::Exp(0), Op::Cos(0), Op::Mul(1, 2)],
-            output: 3,
-        };
-        let prog = Program::new(&spec, None).unwrap();
+        let prog = Program::new(&exp_times_cos(), None).unwrap();
         let xs: [f64; 8] = std::array::from_fn(|b| 0.37 * b as f64 - 1.1);
         let mut f = [Lanes::<8>::zero()];
         let v = prog
