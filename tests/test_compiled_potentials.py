@@ -7,6 +7,7 @@ FPU written as an expression against the native FPU; ensembles against integrate
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 import numpy as np
@@ -204,15 +205,35 @@ def test_vectorized_python_potential_gets_blocks():
     calls = []
 
     def grad(x):
-        calls.append(x.shape)
+        calls.append((x.shape, x.flags.f_contiguous))
         return x**3
 
     pot = ti.PythonPotential(lambda x: np.sum(x**4, axis=-1) / 4, grad, vectorized=True)
     prob = ti.OscillatoryProblem([0.0, 10.0], pot)
     ti.ensemble(prob, "B", np.random.default_rng(0).normal(size=(300, 2)), [0.0, 0.0], h=0.01, n_steps=5,
                 threads=1, progress=False)
-    # 300 trajectories: two bundles of 256 rows (the second padded), one call each per step
-    assert set(calls) == {(256, 2)} and len(calls) == 2 * 6
+    # 300 trajectories: two bundles of 256 rows (the second padded), one call each per step, each
+    # block column-major
+    assert set(calls) == {((256, 2), True)} and len(calls) == 2 * 6
+
+
+@pytest.mark.parametrize("vectorized", [False, True])
+def test_python_callables_keep_one_thread_state_per_worker(vectorized):
+    """A worker of ensemble() keeps one interpreter thread state for the whole batch, not one
+    per call: what a call leaves in a threading.local is there in the next call."""
+    local, counts = threading.local(), []
+
+    def grad(x):
+        local.calls = getattr(local, "calls", 0) + 1
+        counts.append(local.calls)
+        return x**3
+
+    value = (lambda x: np.sum(x**4, axis=-1) / 4) if vectorized else (lambda x: float(np.sum(x**4)) / 4)
+    prob = ti.OscillatoryProblem([0.0, 10.0], ti.PythonPotential(value, grad, vectorized=vectorized))
+    ti.ensemble(prob, "B", np.random.default_rng(0).normal(size=(6, 2)), [0.0, 0.0], h=0.01, n_steps=5,
+                threads=1, progress=False)
+    # one thread state: the count goes on from call to call (a new one per call restarts at 1)
+    assert len(counts) >= 6 and counts == list(range(1, len(counts) + 1))
 
 
 def test_overflow_stops_with_blow_up_and_keeps_samples():

@@ -454,7 +454,9 @@ class PythonPotential(Potential):
     and return a float and an array of shape (n,). With ``vectorized=True`` they take the
     states of a whole block of trajectories, an array of shape (lanes, n), and return shapes
     (lanes,) and (lanes, n): in ``ensemble()`` that is one call per bundle of 256 trajectories
-    and step instead of one per trajectory.
+    and step instead of one per trajectory. The block is column-major (each coordinate
+    contiguous across the trajectories, as the kernel stores it), so operations on its columns
+    ``q[:, i]`` run over all lanes at once; the functions must not modify it.
 
     Examples
     --------

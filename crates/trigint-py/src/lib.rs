@@ -160,26 +160,37 @@ fn integrate_batch<'py>(
         q0.as_array().iter().copied().collect(),
         p0.as_array().iter().copied().collect(),
     );
-    let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK);
-    if let Some(t) = threads {
-        builder = builder.num_threads(t);
-    }
-    let pool = builder
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("could not start threads: {e}")))?;
     let stop = AtomicBool::new(false);
     let mut interrupted = false;
+    let calls_python = matches!(pot, NativePotential::Python(_));
+    // A worker that calls Python keeps one interpreter thread state for the whole batch: without
+    // it every call would create and delete one (with its frame stack, an mmap and munmap).
+    let worker = |thread: rayon::ThreadBuilder| {
+        if calls_python {
+            Python::attach(|py| py.detach(|| thread.run()))
+        } else {
+            thread.run()
+        }
+    };
     let run = || {
-        pool.install(|| match &pot {
-            NativePotential::Python(p) if p.vectorized() => {
-                trigint_core::integrate_batch::<WideLanes, _>(
-                    p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
-                )
-            }
-            _ => with_potential!(&pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
-                p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
-            )),
-        })
+        let body = |pool: &rayon::ThreadPool| {
+            pool.install(|| match &pot {
+                NativePotential::Python(p) if p.vectorized() => {
+                    trigint_core::integrate_batch::<WideLanes, _>(
+                        p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
+                    )
+                }
+                _ => with_potential!(&pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
+                    p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
+                )),
+            })
+        };
+        let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK);
+        if let Some(t) = threads {
+            builder = builder.num_threads(t);
+        }
+        // Scoped: the workers are joined (and their thread states deleted) before this returns.
+        builder.build_scoped(worker, body)
     };
     let out = py.detach(|| {
         std::thread::scope(|scope| {
@@ -202,8 +213,13 @@ fn integrate_batch<'py>(
         })
     });
     let out = match out {
-        Ok(Ok(o)) => o,
-        Ok(Err(e)) => return Err(to_py(e, &pot)),
+        Ok(Ok(Ok(o))) => o,
+        Ok(Ok(Err(e))) => return Err(to_py(e, &pot)),
+        Ok(Err(e)) => {
+            return Err(PyRuntimeError::new_err(format!(
+                "could not start threads: {e}"
+            )))
+        }
         Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
     };
     let (count, c) = (out.len(), lay.n_blocks() + 4);

@@ -136,24 +136,43 @@ impl PythonCallbacks {
     }
 
     /// The states of the lanes as the callables take them, with non-finite entries (of lanes
-    /// that have ended) replaced by 0 so that user code never sees them.
-    fn rows<L: Real>(&self, x: &[L]) -> Vec<f64> {
-        let n = x.len();
-        let mut out = vec![0.0; L::LANES * n];
+    /// that have ended) replaced by 0 so that user code never sees them: lane by lane for
+    /// per-trajectory calls, coordinate by coordinate (the kernel's order) when vectorized.
+    fn states<L: Real>(&self, x: &[L]) -> Vec<f64> {
+        let clean = |s: f64| if s.is_finite() { s } else { 0.0 };
+        let (n, lanes) = (x.len(), L::LANES);
+        if self.vectorized {
+            if let Some(flat) = L::as_f64s(x) {
+                return flat.iter().map(|&s| clean(s)).collect();
+            }
+        }
+        let mut out = vec![0.0; lanes * n];
         for (i, v) in x.iter().enumerate() {
-            for b in 0..L::LANES {
-                let s = v.lane(b);
-                out[b * n + i] = if s.is_finite() { s } else { 0.0 };
+            for b in 0..lanes {
+                let at = if self.vectorized {
+                    i * lanes + b
+                } else {
+                    b * n + i
+                };
+                out[at] = clean(v.lane(b));
             }
         }
         out
     }
 
-    fn call_value<'py>(&self, py: Python<'py>, x: &[f64], lanes: usize) -> PyResult<Vec<f64>> {
-        let n = x.len() / lanes;
+    /// The (lanes, n) block of the vectorized callables, column-major: each coordinate is
+    /// contiguous across the rows, so NumPy's loops over a column run over all lanes at once.
+    fn block<'py>(py: Python<'py>, states: &[f64], lanes: usize) -> PyResult<Bound<'py, PyAny>> {
+        let n = states.len() / lanes;
+        let arr = PyArray1::from_slice(py, states).reshape([n, lanes])?;
+        Ok(arr.transpose()?.into_any())
+    }
+
+    /// U of each lane.
+    fn call_value(&self, py: Python<'_>, states: &[f64], lanes: usize) -> PyResult<Vec<f64>> {
+        let n = states.len() / lanes;
         if self.vectorized {
-            let arr = PyArray1::from_slice(py, x).reshape([lanes, n])?;
-            let r = self.value.call1(py, (arr,))?;
+            let r = self.value.call1(py, (Self::block(py, states, lanes)?,))?;
             let v: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
                 PyTypeError::new_err(format!(
                     "the vectorized value function must return {lanes} floats (one per row)"
@@ -169,7 +188,7 @@ impl PythonCallbacks {
         }
         (0..lanes)
             .map(|b| {
-                let arr = PyArray1::from_slice(py, &x[b * n..(b + 1) * n]);
+                let arr = PyArray1::from_slice(py, &states[b * n..(b + 1) * n]);
                 self.value
                     .call1(py, (arr,))?
                     .extract::<f64>(py)
@@ -178,11 +197,18 @@ impl PythonCallbacks {
             .collect()
     }
 
-    fn call_gradient<'py>(&self, py: Python<'py>, x: &[f64], lanes: usize) -> PyResult<Vec<f64>> {
-        let n = x.len() / lanes;
+    /// −∇U of each lane, into `force`.
+    fn call_gradient<L: Real>(
+        &self,
+        py: Python<'_>,
+        states: &[f64],
+        force: &mut [L],
+    ) -> PyResult<()> {
+        let (n, lanes) = (force.len(), L::LANES);
         if self.vectorized {
-            let arr = PyArray1::from_slice(py, x).reshape([lanes, n])?;
-            let r = self.gradient.call1(py, (arr,))?;
+            let r = self
+                .gradient
+                .call1(py, (Self::block(py, states, lanes)?,))?;
             let g: PyReadonlyArray2<f64> = r.bind(py).extract().map_err(|_| {
                 PyTypeError::new_err(format!(
                     "the vectorized gradient must return a float array of shape ({lanes}, {n})"
@@ -194,11 +220,23 @@ impl PythonCallbacks {
                     g.shape()
                 )));
             }
-            return Ok(g.as_array().iter().copied().collect());
+            let g = g.as_array();
+            // A column-major result (NumPy keeps the block's order) is the kernel's order.
+            if let (Some(src), Some(dst)) = (g.t().to_slice(), L::as_f64s_mut(force)) {
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d = -s;
+                }
+                return Ok(());
+            }
+            for (i, f) in force.iter_mut().enumerate() {
+                for (b, x) in g.column(i).iter().enumerate() {
+                    f.set_lane(b, -x);
+                }
+            }
+            return Ok(());
         }
-        let mut out = Vec::with_capacity(x.len());
         for b in 0..lanes {
-            let arr = PyArray1::from_slice(py, &x[b * n..(b + 1) * n]);
+            let arr = PyArray1::from_slice(py, &states[b * n..(b + 1) * n]);
             let r = self.gradient.call1(py, (arr,))?;
             let g: PyReadonlyArray1<f64> = r
                 .bind(py)
@@ -210,9 +248,11 @@ impl PythonCallbacks {
                     g.len()
                 )));
             }
-            out.extend(g.as_array().iter());
+            for (f, x) in force.iter_mut().zip(g.as_array().iter()) {
+                f.set_lane(b, -x);
+            }
         }
-        Ok(out)
+        Ok(())
     }
 }
 
@@ -233,21 +273,14 @@ impl Potential for PythonCallbacks {
         with_value: bool,
         _: &mut (),
     ) -> CoreResult<L> {
-        let rows = self.rows(x);
-        let n = x.len();
+        let states = self.states(x);
         Python::attach(|py| {
-            let g = self
-                .call_gradient(py, &rows, L::LANES)
+            self.call_gradient(py, &states, force)
                 .map_err(|e| self.fail(py, e))?;
-            for (i, f) in force.iter_mut().enumerate() {
-                for b in 0..L::LANES {
-                    f.set_lane(b, -g[b * n + i]);
-                }
-            }
             let mut u = L::zero();
             if with_value {
                 let v = self
-                    .call_value(py, &rows, L::LANES)
+                    .call_value(py, &states, L::LANES)
                     .map_err(|e| self.fail(py, e))?;
                 for (b, x) in v.iter().enumerate() {
                     u.set_lane(b, *x);
@@ -258,10 +291,10 @@ impl Potential for PythonCallbacks {
     }
 
     fn value<L: Real>(&self, x: &[L], _: &mut ()) -> CoreResult<L> {
-        let rows = self.rows(x);
+        let states = self.states(x);
         Python::attach(|py| {
             let v = self
-                .call_value(py, &rows, L::LANES)
+                .call_value(py, &states, L::LANES)
                 .map_err(|e| self.fail(py, e))?;
             let mut u = L::zero();
             for (b, x) in v.iter().enumerate() {
