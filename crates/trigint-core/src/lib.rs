@@ -4,14 +4,13 @@
 //! integrators (Cohen, Gauckler, Hairer, Lubich, BIT 2015). Methods arrive as per-coordinate
 //! coefficient arrays ([`MethodCoefficients`]); one recursion ([`recursion`]), written once over
 //! a lane-generic number type ([`Real`]), steps every method, for one trajectory or for bundles
-//! of them ([`bundle`]).
+//! of them ([`run`]).
 
 // Loops over lanes and coordinates index several arrays of equal, validated length in lockstep;
 // written with indices they are what the vectorizer handles best (see docs/design.md).
 #![allow(clippy::needless_range_loop)]
 
 pub mod basis;
-pub mod bundle;
 pub mod coefficients;
 pub mod energy;
 pub mod error;
@@ -22,16 +21,16 @@ pub mod output;
 pub mod potential;
 pub mod real;
 pub mod recursion;
-mod run;
+pub mod run;
 pub mod shape;
 
-pub use bundle::Control;
 pub use coefficients::MethodCoefficients;
 pub use energy::{channel_names, Samples};
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
 pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec};
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
+pub use run::Control;
 pub use run::{integrate, integrate_batch};
 pub use shape::Layout;
 

@@ -3,8 +3,8 @@
 
 use std::sync::atomic::AtomicBool;
 
-use trigint_core::bundle::Control;
 use trigint_core::fixtures::{fpu_method_b, layout, sinc, trigonometric};
+use trigint_core::run::Control;
 use trigint_core::*;
 
 struct Case<P> {

@@ -1,8 +1,8 @@
 //! Oracles for the kernels: exact harmonic solutions, the two forms against each other, the
 //! shapes against each other (bit for bit), blow-up, interruption and bad input.
 
-use trigint_core::bundle::{Bundle, Control};
 use trigint_core::fixtures::{fpu_method_b, layout, sinc, trigonometric};
+use trigint_core::run::{Bundle, Control};
 use trigint_core::shape::{Fixed, Shape};
 use trigint_core::*;
 

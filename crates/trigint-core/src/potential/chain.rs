@@ -7,8 +7,8 @@
 //! tiles of springs, each instruction over a whole tile), sums V in spring order into eight
 //! partial sums and applies Lᵀ(−V'(y)) to the force.
 
+use super::compiled::{Op, Program, ProgramSpec};
 use super::linear::LinearMap;
-use super::program::{Op, Program, ProgramSpec};
 use super::Potential;
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;

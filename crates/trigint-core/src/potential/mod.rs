@@ -8,15 +8,14 @@
 //! inlined into the step loop wherever the kind allows it.
 
 mod chain;
+mod compiled;
 mod fpu;
-mod jit;
 mod linear;
-mod program;
 
 pub use chain::{Chain, ChainTerm};
+pub use compiled::{Op, Program, ProgramSpec};
 pub use fpu::Fpu;
 pub use linear::{LinearMap, Segment, SegmentCoef};
-pub use program::{Op, Program, ProgramSpec};
 
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;

@@ -1,18 +1,25 @@
 //! The entry points: [`integrate`] (one trajectory) and [`integrate_batch`] (many, in bundles of
 //! lanes on a rayon pool). Both validate, choose the shape (compile-time sizes for small
 //! problems) and the instruction set, and run [`Bundle`]s: one run loop for both.
+//!
+//! The run loop: [`bundle`] (a bundle's state, the driver from event to event, checkpoints and
+//! replay), `hot` (the tight loop between events), `record` (what a careful step records).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use crate::bundle::{Bundle, Control};
+mod bundle;
+mod hot;
+mod record;
+
 use crate::coefficients::MethodCoefficients;
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Form, Record, TrajectoryOutput};
 use crate::potential::Potential;
 use crate::real::{Real, Scalar};
 use crate::shape::{Fixed, Layout};
+pub use bundle::{Bundle, Control};
 
 /// Whether the oscillatory coordinates share one frequency and one set of method numbers in
 /// every trajectory (what a [`Fixed`] shape assumes).

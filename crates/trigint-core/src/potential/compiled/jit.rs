@@ -22,7 +22,9 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, Linkage, Module};
 
-use super::program::{Binary, Code, Instr, Unary, SIN_COS_C};
+use super::code::{Code, Instr};
+use super::libm::SIN_COS_C;
+use super::ops::{Binary, Unary};
 
 type Function = unsafe extern "C" fn(*const f64, *mut f64, *mut f64, usize);
 

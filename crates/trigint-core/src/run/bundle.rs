@@ -1,0 +1,355 @@
+//! A bundle of trajectories stepped together from the first step to the last: the run loop,
+//! written once. A single trajectory is a bundle of one `f64` lane; a batch is many bundles of
+//! `Lanes<W>`.
+//!
+//! Steps between events run in a tight loop ([`Bundle::hot`]): the step, the energy sums when
+//! they are tracked, and a finiteness test of the total energy. Events are the steps that need
+//! more: a sample, a lane's last step, a progress report, and a check every few steps. An event
+//! is a careful step: it observes the whole state, records what is asked for, and keeps that
+//! observation as the last good one. When a lane turns non-finite, the bundle goes back to the
+//! checkpoint at the start of the segment and replays it carefully (the same operations, so the
+//! same bits) up to the first non-finite step, so the last finite state is kept exactly.
+//! Lanes that have ended (completed or blown up) keep running but are masked out of every test
+//! and record.
+//!
+//! Between steps the state holds q_n and d_n (two-step form; the force g(φq_n) is evaluated at
+//! the top of step n, so it is not carried from one step to the next) or q_n, p_n and g_n
+//! (one-step form, which needs g_n in two consecutive steps).
+
+use crate::coefficients::{Coef, MethodCoefficients, Weights};
+use crate::energy::{Extremes, Samples, Sums, FIRST_BLOCK, TOTAL};
+use crate::error::CoreResult;
+use crate::output::{Form, Record, Status, TrajectoryOutput};
+use crate::potential::Potential;
+use crate::real::{LaneSet, Real};
+use crate::recursion::{self, Observe, State};
+use crate::shape::{Shape, Storage};
+
+/// Steps between finiteness tests in the tight loop: of the positions (untracked runs; a NaN or
+/// an infinity never leaves the recursion, so a later test finds an earlier blow-up), or of a
+/// sticky sum of the total energies (tracked runs). A test costs a branch on the step's longest
+/// chain (2.3 of 12.3 ns per FPU step when done every step).
+pub(super) const CHECK: u64 = 64;
+/// Steps between events at most: this bounds the cost of a replay.
+pub(super) const SEGMENT: u64 = 4096;
+
+/// How a run reports progress and learns that it should stop.
+pub struct Control<'c> {
+    /// Steps between reports (also how often a stop request is noticed).
+    pub every: u64,
+    /// Called with the step reached; returning false stops the run ("interrupted").
+    pub report: &'c mut dyn FnMut(u64) -> bool,
+}
+
+/// The state of one observed step, kept as the last good one.
+pub(super) struct Observed<L: Real, Sh: Shape> {
+    pub(super) step: u64,
+    pub(super) q: Sh::S<L>,
+    pub(super) p: Sh::S<L>,
+    pub(super) main: [L; FIRST_BLOCK],
+    /// I_1 … I_ℓ for ℓ > 1
+    pub(super) blocks: Vec<L>,
+}
+
+/// One lane's bookkeeping.
+pub(super) struct Lane {
+    pub(super) n_steps: u64,
+    pub(super) status: Status,
+    pub(super) steps_done: u64,
+    pub(super) initial: Vec<f64>,
+    /// The extremes when the lane ended.
+    pub(super) high: Vec<f64>,
+    pub(super) low: Vec<f64>,
+    pub(super) samples: Samples,
+    pub(super) message: String,
+}
+
+/// What a replay restarts from: q, d, p and the extremes at the last check.
+pub(super) type Checkpoint<L, Sh> = (
+    <Sh as Shape>::S<L>,
+    <Sh as Shape>::S<L>,
+    <Sh as Shape>::S<L>,
+    Extremes<L>,
+);
+
+pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
+    pub(super) sh: &'a Sh,
+    pub(super) pot: &'a P,
+    pub(super) ws: P::Workspace<L>,
+    pub(super) form: Form,
+    pub(super) record: Record,
+    pub(super) k: Coef<L, Sh::S<L>>,
+    pub(super) w: Weights<L, Sh::S<L>>,
+    pub(super) st: State<L, Sh>,
+    pub(super) checkpoint: Checkpoint<L, Sh>,
+    pub(super) good: Observed<L, Sh>,
+    pub(super) ext: Extremes<L>,
+    /// Σ(p² + ω²q²) per block, when ℓ > 1
+    pub(super) block_sums: Vec<L>,
+    pub(super) lanes: Vec<Lane>,
+    /// The lanes still running.
+    pub(super) active: LaneSet,
+}
+
+impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
+    /// Up to `L::LANES` trajectories (`methods`, `q0`, `p0` and `n_steps` per lane; lanes
+    /// beyond them repeat the last trajectory and are never reported). Everything is assumed
+    /// validated.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        sh: &'a Sh,
+        pot: &'a P,
+        omega2: &[f64],
+        form: Form,
+        record: Record,
+        methods: &[&MethodCoefficients],
+        q0: &[&[f64]],
+        p0: &[&[f64]],
+        n_steps: &[u64],
+    ) -> Self {
+        let count = methods.len();
+        let n_blocks = sh.block_ends().len();
+        let mut st = State::<L, Sh>::new(sh);
+        for (dst, rows) in [(&mut st.q, q0), (&mut st.p, p0)] {
+            for (i, x) in dst.get_mut().iter_mut().enumerate() {
+                for b in 0..L::LANES {
+                    x.set_lane(b, rows[b.min(count - 1)][i]);
+                }
+            }
+        }
+        let z = || Sh::S::<L>::filled(sh.n(), L::zero());
+        let lanes = n_steps
+            .iter()
+            .map(|&n| Lane {
+                n_steps: n,
+                status: Status::Completed,
+                steps_done: 0,
+                initial: vec![f64::NAN; FIRST_BLOCK + n_blocks],
+                high: Vec::new(),
+                low: Vec::new(),
+                samples: Samples::default(),
+                message: String::new(),
+            })
+            .collect();
+        Bundle {
+            sh,
+            pot,
+            ws: pot.workspace(),
+            form,
+            record,
+            k: Coef::new(sh, methods),
+            w: Weights::new(sh, omega2, methods),
+            st,
+            checkpoint: (z(), z(), z(), Extremes::new(n_blocks)),
+            good: Observed {
+                step: 0,
+                q: z(),
+                p: z(),
+                main: [L::zero(); FIRST_BLOCK],
+                blocks: vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 }],
+            },
+            ext: Extremes::new(n_blocks),
+            block_sums: vec![L::zero(); n_blocks.max(1)],
+            lanes,
+            active: LaneSet::first(count),
+        }
+    }
+
+    #[inline(always)]
+    fn evaluate(&mut self, with_value: bool) -> CoreResult<()> {
+        let phi = self.k.phi_is_identity;
+        recursion::evaluate(
+            self.sh,
+            self.pot,
+            &mut self.ws,
+            &self.k,
+            &mut self.st,
+            with_value,
+            phi,
+        )
+    }
+
+    /// Runs every lane to its last step (or blow-up, or interruption).
+    #[inline(always)]
+    pub fn run(mut self, control: &mut Control) -> CoreResult<Vec<TrajectoryOutput>> {
+        match self.steps(control) {
+            Ok(()) => {}
+            // Stopped from inside the potential: end at the last observed state.
+            Err(crate::error::CoreError::Interrupted) => {
+                let step = self.good.step;
+                self.interrupt(step);
+            }
+            Err(e) => return Err(e),
+        }
+        Ok(self.finish())
+    }
+
+    #[inline(always)]
+    fn steps(&mut self, control: &mut Control) -> CoreResult<()> {
+        self.start()?;
+        let mut n = 1;
+        while !self.active.is_empty() {
+            let e = self.next_event(n, SEGMENT, control.every);
+            self.save_checkpoint();
+            let detected = self.hot_dispatch(n, e)?;
+            if let Some(j) = detected {
+                // A lane is not finite at step j or before: replay n..=j carefully.
+                self.restore_checkpoint()?;
+                for i in n..=j {
+                    let sums = self.observe_state()?;
+                    self.careful(i, sums, false)?;
+                }
+                n = j + 1;
+                continue;
+            }
+            let mut sums = self.observe_state()?;
+            if e > n && !self.nonfinite(&sums).is_empty() {
+                // The last good state is at n − 1, not e − 1: replay the segment carefully.
+                self.restore_checkpoint()?;
+                for i in n..e {
+                    let s = self.observe_state()?;
+                    self.careful(i, s, false)?;
+                }
+                sums = self.observe_state()?;
+            }
+            self.careful(e, sums, true)?;
+            if !self.active.is_empty() && e.is_multiple_of(control.every) && !(control.report)(e) {
+                self.interrupt(e);
+            }
+            n = e + 1;
+        }
+        Ok(())
+    }
+
+    /// The next step that needs a careful observation.
+    fn next_event(&self, n: u64, check: u64, every: u64) -> u64 {
+        let up_to_multiple = |s: u64| n.div_ceil(s) * s;
+        let mut e = n.saturating_add(check - 1);
+        if let Some(s) = self.record.save_every {
+            e = e.min(up_to_multiple(s));
+        }
+        e = e.min(up_to_multiple(every.max(1)));
+        for b in self.active.iter() {
+            e = e.min(self.lanes[b].n_steps);
+        }
+        e
+    }
+
+    /// ½ Σ per block: the block energies I_j in `block_sums`.
+    pub(super) fn half_blocks(&mut self) {
+        let half = L::splat(0.5);
+        for s in &mut self.block_sums {
+            *s = half * *s;
+        }
+    }
+
+    /// The energy sums of the current step with p_n in the state's `p` and q still at q_n
+    /// (the two-step form evaluates its force here).
+    pub(super) fn observe_state(&mut self) -> CoreResult<Sums<L>> {
+        Ok(match self.form {
+            Form::TwoStep => {
+                self.evaluate(true)?;
+                recursion::two_step(
+                    self.sh,
+                    &self.k,
+                    &self.w,
+                    &mut self.st,
+                    Observe::State,
+                    self.w.plain_modified,
+                    &mut self.block_sums,
+                )
+            }
+            Form::OneStep => recursion::sums_of_state(
+                self.sh,
+                &self.w,
+                self.st.q.get(),
+                self.st.p.get(),
+                self.w.plain_modified,
+                &mut self.block_sums,
+            ),
+        })
+    }
+
+    /// Completes the step after [`observe_state`](Self::observe_state).
+    pub(super) fn advance_after_state(&mut self) -> CoreResult<()> {
+        match self.form {
+            Form::TwoStep => {
+                recursion::finish_state_step(self.sh, &mut self.st);
+                Ok(())
+            }
+            Form::OneStep => {
+                recursion::one_step_position(self.sh, &self.k, &mut self.st);
+                self.evaluate(true)?;
+                recursion::one_step_momentum(self.sh, &self.k, &mut self.st);
+                Ok(())
+            }
+        }
+    }
+
+    pub(super) fn nonfinite(&self, sums: &Sums<L>) -> LaneSet {
+        let main = sums.channels(self.st.u, self.w.plain_modified);
+        main[TOTAL].nonfinite_lanes() & self.active
+    }
+
+    pub(super) fn save_checkpoint(&mut self) {
+        self.checkpoint.0.get_mut().copy_from_slice(self.st.q.get());
+        self.checkpoint.1.get_mut().copy_from_slice(self.st.d.get());
+        self.checkpoint.2.get_mut().copy_from_slice(self.st.p.get());
+        self.checkpoint.3.clone_from(&self.ext);
+    }
+
+    pub(super) fn restore_checkpoint(&mut self) -> CoreResult<()> {
+        self.st.q.get_mut().copy_from_slice(self.checkpoint.0.get());
+        self.st.d.get_mut().copy_from_slice(self.checkpoint.1.get());
+        self.st.p.get_mut().copy_from_slice(self.checkpoint.2.get());
+        self.ext.clone_from(&self.checkpoint.3);
+        match self.form {
+            Form::TwoStep => Ok(()),
+            Form::OneStep => self.evaluate(true),
+        }
+    }
+
+    /// Step 0: observe (q_0, p_0) and start the recursion.
+    pub(super) fn start(&mut self) -> CoreResult<()> {
+        self.evaluate(true)?;
+        let sums = recursion::sums_of_state(
+            self.sh,
+            &self.w,
+            self.st.q.get(),
+            self.st.p.get(),
+            self.w.plain_modified,
+            &mut self.block_sums,
+        );
+        let (main, blocks) = self.channels(&sums);
+        for b in self.active.iter() {
+            self.lanes[b].initial = self.row(&main, &blocks, b);
+        }
+        self.take_observation(0, &main, &blocks, true);
+        match self.form {
+            Form::TwoStep => {
+                recursion::two_step_start(self.sh, &self.k, &mut self.st);
+                Ok(())
+            }
+            Form::OneStep => self.advance_after_state(),
+        }
+    }
+
+    /// The main channels and (ℓ > 1) the block energies of the current sums.
+    pub(super) fn channels(&mut self, sums: &Sums<L>) -> ([L; FIRST_BLOCK], Vec<L>) {
+        let main = sums.channels(self.st.u, self.w.plain_modified);
+        let blocks = if self.sh.single_block() {
+            Vec::new()
+        } else {
+            self.half_blocks();
+            self.block_sums.clone()
+        };
+        (main, blocks)
+    }
+
+    /// A careful step: observe step i from `sums`, handle blow-ups, record (events), advance.
+    pub(super) fn careful(&mut self, i: u64, sums: Sums<L>, event: bool) -> CoreResult<()> {
+        let (main, blocks) = self.channels(&sums);
+        self.take_observation(i, &main, &blocks, event);
+        self.advance_after_state()
+    }
+}

@@ -1,0 +1,209 @@
+//! The tight loop between events: the step, the energy sums when tracked and a sticky
+//! finiteness guard, compiled for each run's constants and for the widest vectors of the CPU.
+
+use super::bundle::{Bundle, CHECK};
+use crate::coefficients::{Coef, Weights};
+use crate::energy::{Extremes, Sums, TOTAL};
+use crate::error::CoreResult;
+use crate::output::Form;
+use crate::potential::Potential;
+use crate::real::{LaneSet, Real};
+use crate::recursion::{self, Observe, State};
+use crate::shape::{Shape, Storage};
+
+impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
+    /// [`hot`](Self::hot) with the run's constants: form, tracking, H* = H_ω, φ ≡ 1 (each a
+    /// compile-time parameter, so the tight loop tests none of them).
+    pub(super) fn hot_dispatch(&mut self, n: u64, e: u64) -> CoreResult<Option<u64>> {
+        let (track, plain) = (self.record.track, self.w.plain_modified);
+        // "φ ≡ 1" as a compile-time variant only for compile-time shapes (registers): run-time
+        // shapes read the flag in the loop. Behind `if Sh::FIXED` the other copies are never
+        // instantiated, which keeps the build short.
+        if Sh::FIXED && self.k.phi_is_identity {
+            return match (self.form, track, plain) {
+                (Form::TwoStep, true, true) => self.hot::<true, true, true, true>(n, e),
+                (Form::TwoStep, true, false) => self.hot::<true, true, false, true>(n, e),
+                (Form::TwoStep, false, _) => self.hot::<true, false, true, true>(n, e),
+                (Form::OneStep, true, _) => self.hot_one_step::<true>(n, e),
+                (Form::OneStep, false, _) => self.hot_one_step::<false>(n, e),
+            };
+        }
+        match (self.form, track, plain) {
+            (Form::TwoStep, true, true) => self.hot::<true, true, true, false>(n, e),
+            (Form::TwoStep, true, false) => self.hot::<true, true, false, false>(n, e),
+            (Form::TwoStep, false, _) => self.hot::<true, false, true, false>(n, e),
+            (Form::OneStep, true, _) => self.hot_one_step::<true>(n, e),
+            (Form::OneStep, false, _) => self.hot_one_step::<false>(n, e),
+        }
+    }
+
+    /// The one-step form's tight loop: less used, so it has one general copy (H* summed, φ
+    /// applied: with H* = H_ω and φ ≡ 1 these give the numbers of the special copies).
+    pub(super) fn hot_one_step<const TRACK: bool>(
+        &mut self,
+        n: u64,
+        e: u64,
+    ) -> CoreResult<Option<u64>> {
+        self.hot::<false, TRACK, false, false>(n, e)
+    }
+
+    /// Steps n..e−1 between events. Returns a step at or before which a running lane turned
+    /// non-finite, leaving the state (and the extremes) to be restored from the checkpoint and
+    /// replayed; otherwise the state is at step e. The state and the extremes are moved into
+    /// locals for the loop, so that the compiler keeps them in registers; the loop runs in the
+    /// copy compiled for the widest vectors this CPU has.
+    pub(super) fn hot<
+        const TWO_STEP: bool,
+        const TRACK: bool,
+        const PLAIN: bool,
+        const PHI: bool,
+    >(
+        &mut self,
+        n: u64,
+        e: u64,
+    ) -> CoreResult<Option<u64>> {
+        let mut kernel = HotLoop::<L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI> {
+            sh: self.sh,
+            pot: self.pot,
+            ws: &mut self.ws,
+            k: &self.k,
+            w: &self.w,
+            st: std::mem::replace(&mut self.st, State::placeholder()),
+            ext: std::mem::replace(&mut self.ext, Extremes::placeholder()),
+            block_sums: &mut self.block_sums,
+            active: self.active,
+            n,
+            e,
+        };
+        let found = crate::isa::run(&mut kernel);
+        self.st = kernel.st;
+        self.ext = kernel.ext;
+        found
+    }
+}
+
+/// The tight loop of [`Bundle::hot`] on the bundle's parts.
+struct HotLoop<
+    'a,
+    L: Real,
+    Sh: Shape,
+    P: Potential,
+    const TWO_STEP: bool,
+    const TRACK: bool,
+    const PLAIN: bool,
+    const PHI: bool,
+> {
+    sh: &'a Sh,
+    pot: &'a P,
+    ws: &'a mut P::Workspace<L>,
+    k: &'a Coef<L, Sh::S<L>>,
+    w: &'a Weights<L, Sh::S<L>>,
+    st: State<L, Sh>,
+    ext: Extremes<L>,
+    block_sums: &'a mut [L],
+    active: LaneSet,
+    n: u64,
+    e: u64,
+}
+
+impl<
+        L: Real,
+        Sh: Shape,
+        P: Potential,
+        const TWO_STEP: bool,
+        const TRACK: bool,
+        const PLAIN: bool,
+        const PHI: bool,
+    > crate::isa::Kernel for HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI>
+{
+    type Output = CoreResult<Option<u64>>;
+    const WIDE: bool = P::SPECIALIZE;
+    const AVX2: bool = !(Sh::FIXED && L::LANES == 1);
+
+    #[inline(always)]
+    fn run(&mut self) -> CoreResult<Option<u64>> {
+        // The state and the extremes as locals of this function: in registers for small shapes.
+        let mut st = std::mem::replace(&mut self.st, State::placeholder());
+        let mut ext = std::mem::replace(&mut self.ext, Extremes::placeholder());
+        let found = self.steps(&mut st, &mut ext);
+        self.st = st;
+        self.ext = ext;
+        found
+    }
+}
+
+impl<
+        L: Real,
+        Sh: Shape,
+        P: Potential,
+        const TWO_STEP: bool,
+        const TRACK: bool,
+        const PLAIN: bool,
+        const PHI: bool,
+    > HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI>
+{
+    #[inline(always)]
+    fn steps(&mut self, st: &mut State<L, Sh>, ext: &mut Extremes<L>) -> CoreResult<Option<u64>> {
+        let (sh, pot, k, w) = (self.sh, self.pot, self.k, self.w);
+        let (active, n, e) = (self.active, self.n, self.e);
+        let ws = &mut *self.ws;
+        let block_sums = &mut *self.block_sums;
+        let obs = if TRACK {
+            Observe::Energies
+        } else {
+            Observe::No
+        };
+        // φ ≡ 1: a constant for compile-time shapes, else the (loop-invariant) flag, so that
+        // long chains skip the product φq and the second evaluation of U as well.
+        let phi = PHI || (!Sh::FIXED && k.phi_is_identity);
+        // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
+        let mut guard = L::zero();
+        let zero = L::zero();
+        for j in n..e {
+            let sums = if TWO_STEP {
+                recursion::evaluate(sh, pot, ws, k, st, TRACK, phi)?;
+                recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums)
+            } else {
+                let s = if TRACK {
+                    recursion::sums_of_state(sh, w, st.q.get(), st.p.get(), PLAIN, block_sums)
+                } else {
+                    Sums::zero()
+                };
+                recursion::one_step_position(sh, k, st);
+                s
+            };
+            if TRACK {
+                let main = sums.channels(st.u, PLAIN);
+                guard += main[TOTAL] * zero;
+                ext.update(&main, PLAIN);
+                if !sh.single_block() {
+                    let half = L::splat(0.5);
+                    for s in block_sums.iter_mut() {
+                        *s = half * *s;
+                    }
+                    ext.update_blocks(block_sums);
+                }
+            }
+            if !TWO_STEP {
+                recursion::evaluate(sh, pot, ws, k, st, TRACK || j + 1 == e, phi)?;
+                recursion::one_step_momentum(sh, k, st);
+            }
+            if j % CHECK == 0 || j + 1 == e {
+                let bad = if TRACK {
+                    guard.nonfinite_lanes()
+                } else {
+                    let mut bad = LaneSet::EMPTY;
+                    for x in st.q.get() {
+                        bad |= x.nonfinite_lanes();
+                    }
+                    bad
+                };
+                if !(bad & active).is_empty() {
+                    // Replayed from the checkpoint, extremes included.
+                    return Ok(Some(j));
+                }
+            }
+        }
+        Ok(None)
+    }
+}
