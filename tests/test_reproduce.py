@@ -8,8 +8,8 @@ import pytest
 import xarray as xr
 
 from trigint import experiments
+from trigint.experiments.numbers import number
 from trigint.experiments.runners import perturbations
-from trigint.experiments.spec import number
 
 
 @pytest.fixture(scope="module")

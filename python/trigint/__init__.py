@@ -36,6 +36,7 @@ from .potentials import (
     PythonPotential,
 )
 from .problem import OscillatoryProblem
+from .saveat import SaveAt
 from .solution import Solution
 
 __version__ = "0.1.0"
@@ -54,6 +55,7 @@ __all__ = [
     "PolynomialPotential",
     "Potential",
     "PythonPotential",
+    "SaveAt",
     "Solution",
     "StormerVerlet",
     "Trigonometric",

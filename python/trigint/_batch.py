@@ -7,10 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _native
-from .integrate import MAX_STEPS, _number, check_steps
+from . import _check, _native
 from .methods import Method
 from .problem import OscillatoryProblem
+from .saveat import MAX_STEPS, check_steps
 
 
 @dataclass
@@ -21,23 +21,24 @@ class Batch:
     p0: np.ndarray  # (B, n)
     h: np.ndarray  # (B,)
     n_steps: np.ndarray  # (B,) int64
-    #: the method's numbers per trajectory, (B, n) each, by the core's row names
+    #: the method's numbers per trajectory, (B, n) each, keyed by the core's row names
     #: (``_native.METHOD_ROWS``), in the user's coordinate order
-    one_minus_cos: np.ndarray
-    chi: np.ndarray
-    psi: np.ndarray
-    phi: np.ndarray
-    psi_over_chi: np.ndarray
-    sin2_over_h_chi: np.ndarray
-    modified_p: np.ndarray
-    modified_q: np.ndarray
+    methods: dict[str, np.ndarray]
 
     def __len__(self) -> int:
         return self.h.size
 
+    def __getattr__(self, name: str) -> np.ndarray:
+        """A method row by its name, e.g. ``batch.chi``."""
+        methods = self.__dict__.get("methods", {})
+        if name in methods:
+            return methods[name]
+        raise AttributeError(f"Batch has no attribute {name!r}")
+
     def rows(self, sel: slice) -> dict:
         """The inputs of trajectories `sel`, as the chunk runner takes them."""
-        return {k: np.ascontiguousarray(getattr(self, k)[sel]) for k in self.__dataclass_fields__}
+        arrays = {"q0": self.q0, "p0": self.p0, "h": self.h, "n_steps": self.n_steps, **self.methods}
+        return {k: np.ascontiguousarray(v[sel]) for k, v in arrays.items()}
 
 
 def _batched(x, name: str, n: int) -> np.ndarray:
@@ -92,7 +93,7 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
             raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
         steps = np.full(count, check_steps(int(n_steps), "n_steps"), dtype=np.int64)
     else:
-        t_end = _number(t_end, "t_end")
+        t_end = _check.number(t_end, "t_end")
         if not np.isfinite(t_end) or t_end <= 0:
             raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
         ratio = t_end / h_arr
@@ -104,7 +105,6 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
-    fields = _native.METHOD_ROWS
     distinct, which = np.unique(h_arr, return_inverse=True)
     try:
         table = _rows_for_step_sizes(method, problem.omega, distinct)
@@ -116,8 +116,8 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
             except ValueError as exc:
                 raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
         raise
-    per = {k: table[k][which] for k in fields}
-    return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, **per)
+    methods = {k: table[k][which] for k in _native.METHOD_ROWS}
+    return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, methods=methods)
 
 
 def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> dict:

@@ -25,6 +25,23 @@ def real(value, name: str, *, positive: bool = False, nonneg: bool = False, fini
     return x
 
 
+def number(value, name: str) -> float:
+    """A real number, finite or not (not a string, a bool or a complex)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name}: expected a number, got {value!r} ({type(value).__name__})")
+    return float(value)
+
+
+def step_size(h) -> float:
+    """The step size h: a finite float > 0."""
+    if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
+        raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
+    h = float(h)
+    if not np.isfinite(h) or h <= 0:
+        raise ValueError(f"h: the step size must be finite and > 0, got {h}")
+    return h
+
+
 def integer(value, name: str, *, low: int | None = None, high: int | None = None) -> int:
     """An integer (Python or NumPy, not bool) within [low, high]."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):

@@ -128,9 +128,9 @@ class CompiledPotential:
     """U and −∇U of one state, compiled once for the whole run."""
 
     def __init__(self, potential, n: int):
-        from . import _core
+        from . import _native
 
-        self.evaluator = _core.Evaluator(potential._spec(n))
+        self.evaluator = _native.evaluator(potential._spec(n))
 
     def force(self, q: np.ndarray) -> np.ndarray:
         return self.evaluator.evaluate(q[None, :])[1][0]

@@ -16,9 +16,15 @@ import numpy as np
 
 from . import _core
 
-#: the rows of a method's numbers, in the order the core names them
-METHOD_ROWS = ("one_minus_cos", "chi", "psi", "phi", "psi_over_chi", "sin2_over_h_chi",
-               "modified_p", "modified_q")
+#: the rows of a method's numbers, in the order of the core's table (``_core.METHOD_ROWS``)
+METHOD_ROWS: tuple[str, ...] = tuple(_core.METHOD_ROWS)
+#: the energy channels of the core's table: name, form, per_block (``_core.CHANNELS``)
+CHANNELS: tuple[dict, ...] = tuple(_core.CHANNELS)
+
+
+def channel_names(n_blocks: int) -> list[str]:
+    """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks."""
+    return list(_core.channels(n_blocks))
 
 
 @dataclass(frozen=True)
@@ -53,6 +59,12 @@ class CoreLayout:
         return np.ascontiguousarray(x) if self.basis is not None else self.to_core(x)
 
 
+def evaluator(spec: dict):
+    """A potential compiled once for many evaluations: ``.evaluate(x)`` of x of shape (m, n)
+    returns (U at each row, −∇U at each row)."""
+    return _core.Evaluator(spec)
+
+
 def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
     """x · m along the last axis, each row summed in a fixed order (the core's), so that a
     state has the same bits alone and in a batch of any size."""
@@ -83,15 +95,11 @@ def method_rows(co, fast: np.ndarray) -> dict:
     """The per-coordinate numbers of one method (user order) as the core takes them.
 
     ψ/χ and sin²(hω̃)/(hχ) are the one-step form's numbers (with their limits where χ = 0)."""
-    psi_over_chi, sin2 = co.psi_over_chi, co.sin2_over_h_chi
-    rows = {
-        "one_minus_cos": co.one_minus_cos, "chi": co.chi, "psi": co.psi, "phi": co.phi,
-        "psi_over_chi": psi_over_chi, "sin2_over_h_chi": sin2,
-        # NaN where σ is undefined: the core sums 0 there and the caller reports NaN
-        "modified_p": np.where(fast & np.isfinite(co.modified_p), co.modified_p, 0.0),
-        "modified_q": np.where(fast & np.isfinite(co.modified_q), co.modified_q, 0.0),
-    }
-    return {k: np.asarray(v, dtype=float) for k, v in rows.items()}
+    rows = {k: np.asarray(getattr(co, k), dtype=float) for k in METHOD_ROWS}
+    # NaN where σ is undefined: the core sums 0 there and the caller reports NaN
+    for k in ("modified_p", "modified_q"):
+        rows[k] = np.where(fast & np.isfinite(rows[k]), rows[k], 0.0)
+    return rows
 
 
 def method_spec(co, lay: CoreLayout, fast: np.ndarray) -> dict:

@@ -1,5 +1,7 @@
-"""Slow pure-NumPy versions of the recursions, written from the formulas of the paper and
-SPEC.md independently of the core: the test oracle for the Rust kernels.
+"""Slow pure-NumPy versions of the recursions, written from the formulas of the paper (Cohen,
+Gauckler, Hairer, Lubich, BIT 2015: the two-step form (2.5) started by (2.3), the one-step form
+of Hairer, Lubich, Wanner, Geometric Numerical Integration XIII (2.7)–(2.9)) independently of
+the core: the test oracle for the Rust kernels.
 
 Not part of the public API.
 """
@@ -92,7 +94,7 @@ def alpha_direct(gradient: Callable, h: float, omega, alpha: float, q0, p0, n_st
 
 
 def imex_one_step(gradient: Callable, h: float, omega, q0, p0, n_steps: int):
-    """IMEX in its one-step form (SPEC §3): p⁺ = p_n + ½h g(q_n);
+    """IMEX in its one-step form (the paper's α-family of §2 with α = 1/4): p⁺ = p_n + ½h g(q_n);
     (I + ¼h²Ω²) q_{n+1} = (I − ¼h²Ω²) q_n + h p⁺; p_{n+1} = p⁺ − ½hΩ²(q_n + q_{n+1}) + ½h g(q_{n+1})."""
     w2 = omega**2
     q, p = [q0], [p0]

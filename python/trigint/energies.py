@@ -8,16 +8,21 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from . import _native
 from .methods import Coefficients, Method
 from .problem import OscillatoryProblem
 
-#: the channels every energy dataset has, before the per-block ones
-BASE_ENERGIES = ("total", "oscillatory", "slow", "modified_oscillatory")
-
 
 def energy_names(n_blocks: int) -> list[str]:
-    """Channel names: total, oscillatory, slow, modified_oscillatory, oscillatory_1 … oscillatory_ℓ."""
-    return [*BASE_ENERGIES, *(f"oscillatory_{j}" for j in range(1, n_blocks + 1))]
+    """Channel names in output order, from the core's channel table (``_core.CHANNELS``): total,
+    oscillatory, slow, modified_oscillatory, then oscillatory_1 … oscillatory_ℓ.
+
+    Examples
+    --------
+    >>> energy_names(2)
+    ['total', 'oscillatory', 'slow', 'modified_oscillatory', 'oscillatory_1', 'oscillatory_2']
+    """
+    return _native.channel_names(n_blocks)
 
 
 def layout(problem: OscillatoryProblem, coefficients: Coefficients | None) -> dict:

@@ -24,9 +24,10 @@ from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
-from .integrate import MAX_SAMPLE_BYTES, check_steps, sample_bytes
+from .integrate import MAX_SAMPLE_BYTES, sample_bytes
 from .methods import Method, resolve_method
 from .problem import OscillatoryProblem
+from .saveat import SaveAt
 
 #: show a progress bar by default from this many trajectory-steps on
 PROGRESS_FROM = 10**8
@@ -35,7 +36,7 @@ PROGRESS_FROM = 10**8
 def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_end: float | None = None,
              n_steps: int | None = None, save_every: int | None = None, track_energies: bool = True,
              threads: int | None = None, client=None, chunk_size: int | None = None, store=None,
-             progress: bool | None = None) -> xr.Dataset:
+             progress: bool | None = None, saveat: SaveAt | None = None) -> xr.Dataset:
     """Integrates many trajectories of one problem; returns an ``xarray.Dataset``.
 
     Parameters
@@ -64,6 +65,9 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         A store written by a different call is refused.
     progress : bool, optional
         A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
+    saveat : SaveAt, optional
+        What to keep, as one value (replaces `save_every` and `track_energies`), the same value
+        :func:`integrate` takes.
 
     Returns
     -------
@@ -88,13 +92,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     problem.require_spectrum("ensemble")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
-    if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
-                                   or save_every < 1):
-        raise ValueError(f"save_every: must be an integer >= 1 or None, got {save_every!r}")
-    if save_every is not None:
-        check_steps(int(save_every), "save_every")
-    if not isinstance(track_energies, bool | np.bool_):
-        raise TypeError(f"track_energies: expected True or False, got {track_energies!r}")
+    saveat = SaveAt.resolve(saveat, save_every, track_energies)
+    save_every, track_energies = saveat.every, saveat.track_energies
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int | np.integer)
                                 or threads < 1):
         raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
@@ -304,7 +303,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
         **({} if problem.stiffness is None else {"stiffness": problem.stiffness}),
-        "method": repr(method), "coefficients": np.stack([getattr(batch, k) for k in METHOD_ROWS]),
+        "method": repr(method), "coefficients": np.stack([batch.methods[k] for k in METHOD_ROWS]),
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track),
     })

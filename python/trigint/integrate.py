@@ -10,11 +10,12 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from . import _native
+from . import _check, _native
 from .energies import energy_names
-from .methods import Method, _check_h, resolve_method
+from .methods import Method, resolve_method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
+from .saveat import MAX_STEPS, SaveAt, check_steps
 from .solution import Solution
 
 FORMS = ("two-step", "one-step")
@@ -36,23 +37,19 @@ def _sample_memory_limit() -> int:
     return int(min(8 << 30, physical // 4))
 
 
-#: the longest run accepted: 2**53 steps (step numbers stay exact in a double; at 7 ns per
-#: step it would take two years)
-MAX_STEPS = 2**53
-
 #: refuse runs whose samples would need more memory than this
 MAX_SAMPLE_BYTES = _sample_memory_limit()
 
 
 def sample_bytes(problem, samples: int) -> int:
     """Memory of `samples` kept states: q, p, the energies and the step number of each."""
-    return samples * (2 * problem.dim + 4 + problem.n_blocks) * 8
+    return samples * (2 * problem.dim + len(energy_names(problem.n_blocks))) * 8
 
 
 def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
               t_end: float | None = None, n_steps: int | None = None, save_every: int = 1,
               form: str = "two-step", track_energies: bool = True,
-              progress: bool | Callable | None = None) -> Solution:
+              progress: bool | Callable | None = None, saveat: SaveAt | None = None) -> Solution:
     """Integrates q'' + Ω²q = −∇U(q) from (q0, p0) with a trigonometric or modified method.
 
     Runs the recursion (2.2)/(2.5) started by (2.3), with p_n by the central
@@ -78,6 +75,9 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     progress : bool or callable, optional
         A tqdm bar over steps (default: for runs of 10⁷ steps or more), or a callable
         ``progress(steps_done)`` that may return False to stop.
+    saveat : SaveAt, optional
+        What to keep, as one value (replaces `save_every` and `track_energies`);
+        ``SaveAt(every=None)`` keeps step 0 and the last step only.
 
     A problem with a large sparse stiffness matrix (``path="krylov"``) is stepped in the
     one-step form (the same method; the two-step form's momentum divides by χ(h√A)) with each
@@ -105,12 +105,15 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
-    h = _check_h(h)
+    h = _check.step_size(h)
     n_steps = _resolve_steps(h, t_end, n_steps)
-    save_every = check_steps(_positive_int(save_every, "save_every"), "save_every")
+    if saveat is None:
+        save_every = check_steps(_positive_int(save_every, "save_every"), "save_every")
+    saveat = SaveAt.resolve(saveat, save_every, track_energies)
+    save_every = saveat.every if saveat.every is not None else max(n_steps, 1)
+    track_energies = saveat.track_energies
     if not isinstance(form, str) or form not in FORMS:
         raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
-    track_energies = _flag(track_energies, "track_energies")
     q0 = _state(q0, "q0", problem.dim)
     p0 = _state(p0, "p0", problem.dim)
     n_samples = n_steps // save_every + 2
@@ -186,7 +189,7 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
         raise ValueError("t_end, n_steps: give exactly one of them")
     if n_steps is not None:
         return check_steps(_positive_int(n_steps, "n_steps"), "n_steps")
-    t_end = _number(t_end, "t_end")
+    t_end = _check.number(t_end, "t_end")
     if not np.isfinite(t_end) or t_end <= 0:
         raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
     steps = t_end / h
@@ -197,27 +200,6 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
     if steps < 1:
         raise ValueError(f"t_end: {t_end} is shorter than half a step h = {h}")
     return int(steps)
-
-
-def check_steps(n: int, name: str) -> int:
-    """n, if it is a run length this library can count (at most 2**53 steps)."""
-    if n > MAX_STEPS:
-        raise ValueError(f"{name}: {n:.3g} steps is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
-                         "(at 7 ns per step that would take two years)")
-    return n
-
-
-def _number(value, name: str) -> float:
-    """A real number (not a string, a bool or a complex)."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name}: expected a number, got {value!r} ({type(value).__name__})")
-    return float(value)
-
-
-def _flag(value, name: str) -> bool:
-    if not isinstance(value, bool | np.bool_):
-        raise TypeError(f"{name}: expected True or False, got {value!r}")
-    return bool(value)
 
 
 def _positive_int(value, name: str, allow_zero: bool = False) -> int:

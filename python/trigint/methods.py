@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _check
 from ._filters import FILTERS, evaluate, lookup, one, sinc
 
 #: |χ(hω̃)| below this counts as zero: p_n = (q_{n+1} − q_{n−1})/(2hχ) would lose every digit.
@@ -101,7 +102,7 @@ class Method(ABC):
         methods B and C it is φ, for E sinc; A and D need an even multiple of π); or a
         step-size restriction.
         """
-        h = _check_h(h)
+        h = _check.step_size(h)
         omega = np.asarray(omega, dtype=float).reshape(-1)
         if omega.size == 0 or not np.all(np.isfinite(omega)) or np.any(omega < 0):
             raise ValueError("omega: need n >= 1 finite frequencies >= 0")
@@ -392,8 +393,6 @@ class AlphaMethod(ModifiedTrigonometric):
     """
 
     def __init__(self, alpha: float, name: str | None = None):
-        from . import _check
-
         alpha = _check.real(alpha, "alpha")
         self.alpha = alpha
         super().__init__(self._xi_tilde, psi=None, phi=None, chi=None,
@@ -475,15 +474,6 @@ class IMEX(AlphaMethod):
 
     def __repr__(self) -> str:
         return "IMEX()"
-
-
-def _check_h(h) -> float:
-    if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
-        raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
-    h = float(h)
-    if not np.isfinite(h) or h <= 0:
-        raise ValueError(f"h: the step size must be finite and > 0, got {h}")
-    return h
 
 
 def _invert_increasing(f: Callable, y: np.ndarray) -> np.ndarray:

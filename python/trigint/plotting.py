@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._curves import runaway_curves
+
 
 def _pyplot():
     import matplotlib
@@ -159,8 +161,6 @@ def _plot_perturbed(ds):
 
 def _frame_majority(ax, dev: np.ndarray, factor: float = 100.0) -> None:
     """Limits the y-range to the curves that stay in the regime, and says what leaves it."""
-    from .experiments.claims import runaway_curves
-
     away = runaway_curves(dev, factor)
     if not away:
         return

@@ -90,6 +90,17 @@ def _count(value, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def fpu_original_basis(m: int) -> np.ndarray:
+    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal)."""
+    t = np.zeros((2 * m, 2 * m))
+    r = np.sqrt(0.5)
+    for i in range(m):
+        t[2 * i, i], t[2 * i, m + i] = r, -r          # q₂ᵢ₋₁ = (x₀,ᵢ − x₁,ᵢ)/√2
+        t[2 * i + 1, i], t[2 * i + 1, m + i] = r, r   # q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2
+    return t
+
+
+
 class FPUPotential(Potential):
     """The soft nonlinear springs of the Fermi–Pasta–Ulam chain [GNI §I.5], native in Rust.
 
@@ -123,8 +134,6 @@ class FPUPotential(Potential):
         """x = Tᵀq as the core's sparse map (None in the diagonal coordinates)."""
         if self.coordinates == "diagonal":
             return None
-        from .problems import fpu_original_basis
-
         return _csr_map(fpu_original_basis(self.m).T, self.dim)
 
     def _spec(self, n: int) -> dict:
@@ -133,8 +142,6 @@ class FPUPotential(Potential):
     def _own_coordinates(self) -> tuple[np.ndarray, dict] | None:
         if self.coordinates == "diagonal":
             return None
-        from .problems import fpu_original_basis
-
         return fpu_original_basis(self.m), {"kind": "fpu", "m": self.m, "map": None}
 
     def _program_spec(self) -> dict:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .potentials import FPUPotential, PolynomialPotential
+from .potentials import FPUPotential, PolynomialPotential, fpu_original_basis
 from .problem import OscillatoryProblem
 
 
@@ -81,16 +81,6 @@ def fpu_initial(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") 
         t = fpu_original_basis(m)
         return t @ q0, t @ p0
     return q0, p0
-
-
-def fpu_original_basis(m: int) -> np.ndarray:
-    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal)."""
-    t = np.zeros((2 * m, 2 * m))
-    r = np.sqrt(0.5)
-    for i in range(m):
-        t[2 * i, i], t[2 * i, m + i] = r, -r          # q₂ᵢ₋₁ = (x₀,ᵢ − x₁,ᵢ)/√2
-        t[2 * i + 1, i], t[2 * i + 1, m + i] = r, r   # q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2
-    return t
 
 
 def _coordinates(value) -> str:

@@ -18,45 +18,68 @@ use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
 
-/// One trajectory's method numbers per coordinate (in the kernels' coordinate order), as
-/// evaluated at hω̃_i; slow coordinates carry Störmer–Verlet's (c = χ = ψ = φ = 1).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MethodCoefficients {
-    pub h: f64,
+/// The method table, written once: each row is one per-coordinate array of a method's numbers,
+/// named as the Python layer names it. The struct, [`MethodCoefficients::ROWS`] (exported to
+/// Python as `_core.METHOD_ROWS`), [`MethodCoefficients::rows`] (validation, conversion) and
+/// [`MethodCoefficients::from_rows`] (the binding) are all generated from this list: a new row
+/// is one line here plus the product the kernels read in [`Coef`].
+macro_rules! method_table {
+    ($($(#[doc = $doc:expr])* $field:ident,)*) => {
+        /// One trajectory's method numbers per coordinate (in the kernels' coordinate order), as
+        /// evaluated at hω̃_i; slow coordinates carry Störmer–Verlet's (c = χ = ψ = φ = 1).
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct MethodCoefficients {
+            pub h: f64,
+            $($(#[doc = $doc])* pub $field: Vec<f64>,)*
+        }
+
+        impl MethodCoefficients {
+            /// The rows' names, in table order.
+            pub const ROWS: &'static [&'static str] = &[$(stringify!($field)),*];
+
+            /// Every row with its name, in table order.
+            pub fn rows(&self) -> Vec<(&'static str, &[f64])> {
+                vec![$((stringify!($field), &self.$field[..])),*]
+            }
+
+            /// A method from its step size and a source of rows by name (`row(name)` is called
+            /// once per row, in table order).
+            pub fn from_rows<E>(
+                h: f64,
+                mut row: impl FnMut(&'static str) -> Result<Vec<f64>, E>,
+            ) -> Result<Self, E> {
+                Ok(MethodCoefficients {
+                    h,
+                    $($field: row(stringify!($field))?,)*
+                })
+            }
+        }
+    };
+}
+
+method_table! {
     /// 1 − cos(hω̃_i) = 2 sin²(½hω̃_i), to full relative precision.
-    pub one_minus_cos: Vec<f64>,
+    one_minus_cos,
     /// χ(hω̃_i); sinc(hω_i) for the trigonometric methods. The two-step form needs χ ≠ 0.
-    pub chi: Vec<f64>,
+    chi,
     /// ψ(hω̃_i)
-    pub psi: Vec<f64>,
+    psi,
     /// φ(hω̃_i)
-    pub phi: Vec<f64>,
+    phi,
     /// ψ/χ, with its limit where χ = 0 (one-step form).
-    pub psi_over_chi: Vec<f64>,
+    psi_over_chi,
     /// sin²(hω̃_i)/(hχ), with its limit where χ = 0 (one-step form; ω sin(hω) for (2.2)).
-    pub sin2_over_h_chi: Vec<f64>,
-    /// Weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4).
-    pub modified_p: Vec<f64>,
-    pub modified_q: Vec<f64>,
+    sin2_over_h_chi,
+    /// Weight of ½p_i² in the modified oscillatory energy (3.4).
+    modified_p,
+    /// Weight of ½q_i² in the modified oscillatory energy (3.4).
+    modified_q,
 }
 
 impl MethodCoefficients {
     /// Number of coordinates.
     pub fn dim(&self) -> usize {
         self.one_minus_cos.len()
-    }
-
-    fn rows(&self) -> [(&'static str, &Vec<f64>); 8] {
-        [
-            ("one_minus_cos", &self.one_minus_cos),
-            ("chi", &self.chi),
-            ("psi", &self.psi),
-            ("phi", &self.phi),
-            ("psi_over_chi", &self.psi_over_chi),
-            ("sin2_over_h_chi", &self.sin2_over_h_chi),
-            ("modified_p", &self.modified_p),
-            ("modified_q", &self.modified_q),
-        ]
     }
 
     /// Checks the step size, the lengths, finiteness and, for the two-step form, χ ≠ 0.

@@ -1,29 +1,11 @@
 //! The energies: their forms per coordinate (written once, summed by every kernel), the channel
 //! table, the running extremes that give max |E(t_n) − E(0)|, and the saved samples.
 //!
-//! Channels, in this order (paper §2.1 and (3.4)): `total` (H), `oscillatory`
-//! (H_ω = Σ_{j≥1} I_j), `slow` (½|p₀|² + U), `modified_oscillatory` (H*_ω or H*_ω̃), then the
-//! per-block oscillatory energies I_1 … I_ℓ. [`channel_names`] is the one list both the core and
-//! the Python layer read.
+//! The channels themselves (names, order) are the table in [`crate::channels`].
 
 use crate::real::Real;
 
-pub const TOTAL: usize = 0;
-pub const OSCILLATORY: usize = 1;
-pub const SLOW: usize = 2;
-pub const MODIFIED: usize = 3;
-/// Index of the first per-block channel (I_1).
-pub const FIRST_BLOCK: usize = 4;
-
-/// The channel names in output order for ℓ oscillatory blocks.
-pub fn channel_names(n_blocks: usize) -> Vec<String> {
-    let mut names: Vec<String> = ["total", "oscillatory", "slow", "modified_oscillatory"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    names.extend((1..=n_blocks).map(|j| format!("oscillatory_{j}")));
-    names
-}
+pub use crate::channels::{FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
 
 /// The sum of the first `m` ≤ 8 partial sums in a fixed tree: ((p0+p1)+(p2+p3))+((p4+p5)+(p6+p7)),
 /// absent parts left out. With [`pairwise!`] this is the one summation order of the kernels: the
@@ -175,7 +157,12 @@ impl<L: Real> Sums<L> {
         } else {
             half * self.modified
         };
-        [oscillatory + slow, oscillatory, slow, modified]
+        let mut main = [L::zero(); FIRST_BLOCK];
+        main[TOTAL] = oscillatory + slow;
+        main[OSCILLATORY] = oscillatory;
+        main[SLOW] = slow;
+        main[MODIFIED] = modified;
+        main
     }
 }
 

@@ -11,6 +11,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod basis;
+pub mod channels;
 pub mod coefficients;
 pub mod energy;
 pub mod error;
@@ -24,8 +25,9 @@ pub mod recursion;
 pub mod run;
 pub mod shape;
 
+pub use channels::{channel_count, channel_names, Channel, CHANNELS};
 pub use coefficients::MethodCoefficients;
-pub use energy::{channel_names, Samples};
+pub use energy::Samples;
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
 pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec};

@@ -32,49 +32,20 @@ pub fn layout(d: &Bound<'_, PyDict>) -> PyResult<Layout> {
     })
 }
 
-/// The per-coordinate rows of one method, or of a batch (2-d arrays, one row per trajectory).
-pub const METHOD_ROWS: [&str; 8] = [
-    "one_minus_cos",
-    "chi",
-    "psi",
-    "phi",
-    "psi_over_chi",
-    "sin2_over_h_chi",
-    "modified_p",
-    "modified_q",
-];
-
-fn method_from_rows(h: f64, rows: &[Vec<f64>]) -> MethodCoefficients {
-    MethodCoefficients {
-        h,
-        one_minus_cos: rows[0].clone(),
-        chi: rows[1].clone(),
-        psi: rows[2].clone(),
-        phi: rows[3].clone(),
-        psi_over_chi: rows[4].clone(),
-        sin2_over_h_chi: rows[5].clone(),
-        modified_p: rows[6].clone(),
-        modified_q: rows[7].clone(),
-    }
-}
-
-/// One method: `{"h": float, <row>: 1-d array, …}`.
+/// One method: `{"h": float, <row>: 1-d array, …}`, the rows named as in
+/// [`MethodCoefficients::ROWS`].
 pub fn method(d: &Bound<'_, PyDict>) -> PyResult<MethodCoefficients> {
-    let rows = METHOD_ROWS
-        .iter()
-        .map(|k| item::<PyReadonlyArray1<f64>>(d, k).map(vec1))
-        .collect::<PyResult<Vec<_>>>()?;
-    Ok(method_from_rows(item(d, "h")?, &rows))
+    MethodCoefficients::from_rows(item(d, "h")?, |k| {
+        item::<PyReadonlyArray1<f64>>(d, k).map(vec1)
+    })
 }
 
 /// One method per trajectory: `{"h": 1-d array (B,), <row>: 2-d array (B, n), …}`.
 pub fn methods(d: &Bound<'_, PyDict>) -> PyResult<Vec<MethodCoefficients>> {
     let h = vec1(item(d, "h")?);
-    let tables = METHOD_ROWS
-        .iter()
-        .map(|k| item::<PyReadonlyArray2<f64>>(d, k))
-        .collect::<PyResult<Vec<_>>>()?;
-    for (k, t) in METHOD_ROWS.iter().zip(&tables) {
+    let mut tables = Vec::with_capacity(MethodCoefficients::ROWS.len());
+    for &k in MethodCoefficients::ROWS {
+        let t = item::<PyReadonlyArray2<f64>>(d, k)?;
         if t.shape()[0] != h.len() {
             return Err(PyValueError::new_err(format!(
                 "{k}: {} rows for {} trajectories",
@@ -82,16 +53,22 @@ pub fn methods(d: &Bound<'_, PyDict>) -> PyResult<Vec<MethodCoefficients>> {
                 h.len()
             )));
         }
+        tables.push((k, t));
     }
-    Ok((0..h.len())
+    let table = |k: &str| {
+        &tables
+            .iter()
+            .find(|(name, _)| *name == k)
+            .expect("every row")
+            .1
+    };
+    (0..h.len())
         .map(|b| {
-            let rows: Vec<Vec<f64>> = tables
-                .iter()
-                .map(|t| t.as_array().row(b).to_vec())
-                .collect();
-            method_from_rows(h[b], &rows)
+            MethodCoefficients::from_rows(h[b], |k| {
+                Ok::<_, PyErr>(table(k).as_array().row(b).to_vec())
+            })
         })
-        .collect())
+        .collect()
 }
 
 pub fn form(name: &str) -> PyResult<Form> {

@@ -10,9 +10,10 @@ use std::sync::mpsc::RecvTimeoutError;
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use trigint_core::{
-    channel_names, BatchLanes, Control, CoreError, Lanes, Samples, TrajectoryOutput,
+    channel_count, channel_names, BatchLanes, Control, CoreError, Lanes, MethodCoefficients,
+    Samples, TrajectoryOutput, CHANNELS,
 };
 
 use potential::{to_2d, values_and_forces, with_potential, NativePotential};
@@ -105,7 +106,7 @@ fn integrate<'py>(
         ))
     });
     let out = out.map_err(|e| to_py(e, &pot))?;
-    let (n, c) = (q0.len(), lay.n_blocks() + 4);
+    let (n, c) = (q0.len(), channel_count(lay.n_blocks()));
     let d = PyDict::new(py);
     d.set_item("status", out.status.as_str())?;
     d.set_item("steps_done", out.steps_done)?;
@@ -222,7 +223,7 @@ fn integrate_batch<'py>(
         }
         Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
     };
-    let (count, c) = (out.len(), lay.n_blocks() + 4);
+    let (count, c) = (out.len(), channel_count(lay.n_blocks()));
     let d = PyDict::new(py);
     let flat = |f: fn(&TrajectoryOutput) -> &Vec<f64>| -> Vec<f64> {
         out.iter().flat_map(|o| f(o).clone()).collect()
@@ -350,5 +351,19 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Evaluator>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
+    // The schemas, written once in the core: the method rows and the energy channels.
+    m.add(
+        "METHOD_ROWS",
+        PyTuple::new(m.py(), MethodCoefficients::ROWS)?,
+    )?;
+    let channels = PyList::empty(m.py());
+    for c in CHANNELS {
+        let d = PyDict::new(m.py());
+        d.set_item("name", c.name)?;
+        d.set_item("form", c.form)?;
+        d.set_item("per_block", c.per_block)?;
+        channels.append(d)?;
+    }
+    m.add("CHANNELS", channels)?;
     Ok(())
 }

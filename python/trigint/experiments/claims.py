@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from .._curves import runaway_curves
+
 
 @dataclass(frozen=True)
 class Claim:
@@ -72,12 +74,6 @@ def _families(ds: xr.Dataset) -> list[Claim]:
         out.append(Claim(fig, f"{labels[i]}: spacing of consecutive curves, max |gap/mean gap − 1|",
                          spread, "0 (nearly constant)", "≤ 0.25", spread <= 0.25))
     return out
-
-
-def runaway_curves(dev: np.ndarray, factor: float = 100.0) -> list[int]:
-    """Curves whose largest |deviation| exceeds `factor` times the median curve's largest."""
-    peak = np.nanmax(np.abs(dev), axis=1)
-    return [int(i) for i in np.flatnonzero(peak > factor * np.nanmedian(peak))]
 
 
 def spread_exponent(t: np.ndarray, dev: np.ndarray, t_from: float) -> tuple[float, float]:

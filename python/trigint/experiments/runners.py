@@ -13,7 +13,7 @@ from ..ensemble import ensemble, scan
 from ..integrate import integrate
 from ..methods import resolve_method
 from ..resonance import resonant_step_sizes
-from .spec import number
+from .numbers import number
 
 
 def run(spec: dict) -> xr.Dataset:

@@ -12,7 +12,7 @@ import difflib
 import math
 from dataclasses import dataclass, field
 
-from .spec import number
+from .numbers import number
 
 
 class SpecError(ValueError):

@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .. import _check
-from ..methods import AlphaMethod, Method, ModifiedTrigonometric, _check_h, resolve_method
+from ..methods import AlphaMethod, Method, ModifiedTrigonometric, resolve_method
 from ._lattice import check_size, half_ball, hermite_basis
 
 TWO_PI = 2.0 * np.pi
@@ -67,7 +67,7 @@ def _power(h: float, e: float) -> float:
         return float(np.power(np.float64(h), float(e)))
 
 
-def _check_h_omega(h: float, w: np.ndarray) -> None:
+def check_h_omega(h: float, w: np.ndarray) -> None:
     from ..methods import LARGEST_H_OMEGA
 
     if h * float(np.max(w)) > LARGEST_H_OMEGA:
@@ -85,7 +85,7 @@ def _check_n_max(N_max) -> int:
 
 def _check_vectors(h, omega, radius, what: str = "radius", need_h: bool = True):
     """Validated (h, ω, radius) of the enumerations below."""
-    h = _check_h(h) if need_h else None
+    h = _check.step_size(h) if need_h else None
     w = _check.real_array(omega, "omega", nonneg=True).reshape(-1)
     radius = _check.integer(radius, what, low=1)
     check_size(w.size, radius, what)
@@ -288,7 +288,7 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
     >>> r.N, r.violations[0].k, r.violations[0].r
     (1, (3,), 1)
     """
-    h = _check_h(h)
+    h = _check.step_size(h)
     N_max = _check_n_max(N_max)
     delta = _check.real(delta, "delta")
     if not 0 < delta <= 0.25:
@@ -296,7 +296,7 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
     method = resolve_method(method if method is not None else "B")
     w = frequencies(omega)
     check_size(w.size, N_max + 1, "N_max")
-    _check_h_omega(h, w)
+    check_h_omega(h, w)
     notes: list[str] = []
     modified = isinstance(method, ModifiedTrigonometric)
     alpha = limit = None

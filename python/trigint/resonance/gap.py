@@ -7,9 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _check
-from ..methods import _check_h
 from ._lattice import check_size, half_ball, hermite_basis, in_lattice
-from .conditions import _check_h_omega, frequencies
+from .conditions import check_h_omega, frequencies
 
 TWO_PI = 2.0 * np.pi
 
@@ -95,11 +94,11 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
     >>> gap(0.01, [50.0], N=2)
     (0.1875, 0.015625)
     """
-    h = _check_h(h)
+    h = _check.step_size(h)
     if h >= 1:
         raise ValueError(f"h: Lemma 5.1 is stated for 0 < h < 1, got {h}")
     w = frequencies(omega)
-    _check_h_omega(h, w)
+    check_h_omega(h, w)
     N = _check_N(N, w.size)
     delta = _check_delta(delta)
     ks = half_ball(w.size, N + 1)
@@ -138,9 +137,9 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     >>> mf.module_basis, mf.verified
     ([[3]], True)
     """
-    h = _check_h(h)
+    h = _check.step_size(h)
     w = frequencies(omega)
-    _check_h_omega(h, w)
+    check_h_omega(h, w)
     N = _check_N(N, w.size)
     delta = _check_delta(delta)
     alpha, mu = gap(h, w, N, delta)

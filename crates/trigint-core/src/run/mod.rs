@@ -27,20 +27,9 @@ fn uniform(layout: &Layout, methods: &[&MethodCoefficients]) -> bool {
     let fast = layout.n_slow..layout.dim();
     let same = |v: &[f64]| v[fast.clone()].windows(2).all(|w| w[0] == w[1]);
     same(&layout.omega2)
-        && methods.iter().all(|m| {
-            [
-                &m.one_minus_cos,
-                &m.chi,
-                &m.psi,
-                &m.phi,
-                &m.psi_over_chi,
-                &m.sin2_over_h_chi,
-                &m.modified_p,
-                &m.modified_q,
-            ]
+        && methods
             .iter()
-            .all(|v| same(v))
-        })
+            .all(|m| m.rows().iter().all(|(_, v)| same(v)))
 }
 
 /// Runs `$body` with `$sh` bound to the layout's shape and `$one` to the number type of a
