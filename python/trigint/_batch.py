@@ -140,7 +140,7 @@ def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, _native.Cor
 
 def run_chunk(potential_spec: dict, layout_spec: dict, order: _native.CoreLayout | None, rows: dict,
               save_every: int | None, track: bool, threads: int | None = None,
-              form: str = "two-step") -> dict:
+              form: str = "two-step"):
     """Runs one chunk of trajectories in the core. Module-level and free of local state, so
     that it can be sent to executors and Dask workers. States come back in the user's
     coordinates."""
@@ -157,8 +157,8 @@ def run_chunk(potential_spec: dict, layout_spec: dict, order: _native.CoreLayout
         potential_spec, layout_spec, methods, state_to_core(rows["q0"]), state_to_core(rows["p0"]),
         rows["n_steps"], save_every, form, track, threads,
     )
-    if order is not None and "samples" in out:
-        for s in out["samples"]:
+    if order is not None and out.samples is not None:
+        for s in out.samples:
             s["q"] = order.to_user(s["q"])
             s["p"] = order.to_user(s["p"])
     return out

@@ -21,6 +21,8 @@ from collections.abc import Callable
 import numpy as np
 from scipy.linalg import eigh_tridiagonal
 
+from . import _native
+
 #: the most Lanczos steps for one product
 MAX_ITERATIONS = 400
 
@@ -128,8 +130,6 @@ class CompiledPotential:
     """U and −∇U of one state, compiled once for the whole run."""
 
     def __init__(self, potential, n: int):
-        from . import _native
-
         self.evaluator = _native.evaluator(potential._spec(n))
 
     def force(self, q: np.ndarray) -> np.ndarray:
@@ -148,9 +148,10 @@ def energies(a, potential, q: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, track: bool, callback,
-              tol: float) -> dict:
-    """Runs one trajectory on the Krylov path; returns what :func:`trigint.integrate` builds its
-    Solution from (states in the user's coordinates, which are the only ones here)."""
+              tol: float):
+    """Runs one trajectory on the Krylov path; returns the core's RunResult, from which
+    :func:`trigint.integrate` builds its Solution (states in the user's coordinates, which are
+    the only ones here)."""
     a = problem.stiffness
     stepper = KrylovStepper(a, problem.potential, method, h, tol)
     potential = stepper.potential
@@ -198,11 +199,9 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
     table = np.column_stack([e[:, 0], e[:, 1], e[:, 2], nan, e[:, 1]])
     if not track:
         worst = np.full(3, np.nan)
-    return {
-        "samples": {"q": np.array(qs), "p": np.array(ps), "energies": table, "steps": np.array(steps, dtype=float)},
-        "max_deviation": np.r_[worst, np.nan, worst[1]],
-        "initial_energies": np.r_[e0, np.nan, e0[1]],
-        "steps_done": n, "status": status, "message": message, "interrupted_by": None,
-        "krylov": {"iterations": stepper.iterations, "products": stepper.products, "tolerance": tol,
-                   "iterations_per_product": stepper.iterations / max(stepper.products, 1)},
-    }
+    samples = {"q": np.array(qs), "p": np.array(ps), "energies": table, "steps": np.array(steps, dtype=float)}
+    info = {"iterations": stepper.iterations, "products": stepper.products, "tolerance": tol,
+            "iterations_per_product": stepper.iterations / max(stepper.products, 1)}
+    return _native.run_result([status], [message], [n], np.r_[e0, np.nan, e0[1]][None, :],
+                              np.r_[worst, np.nan, worst[1]][None, :], [samples],
+                              interrupted=status == "interrupted", info=info)

@@ -199,8 +199,8 @@ def _permute_map(m: dict, inv: np.ndarray) -> dict:
     return {**m, "idx": [int(inv[j]) for j in m["idx"]]}
 
 
-def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, callback) -> dict:
-    """Runs one trajectory; returns the core's dictionary with states in the user's order."""
+def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, callback):
+    """Runs one trajectory; returns the core's RunResult with states in the user's order."""
     lay = core_layout(problem)
     fast = problem.omega > 0
     out = _core.integrate(
@@ -208,18 +208,32 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
         lay.to_core(q0), lay.to_core(p0), int(n_steps), int(save_every), form, bool(track),
         int(every), callback,
     )
-    s = out["samples"]
+    s = out.samples[0]
     s["q"], s["p"] = lay.to_user(s["q"]), lay.to_user(s["p"])
     return out
 
 
 def integrate_batch(potential_spec_core: dict, layout_spec: dict, methods: dict, q0, p0, n_steps,
-                    save_every, form, track, threads) -> dict:
-    """Runs a batch whose inputs are already in the core's order (see :func:`core_layout`)."""
+                    save_every, form, track, threads):
+    """Runs a batch whose inputs are already in the core's order (see :func:`core_layout`);
+    returns the core's RunResult."""
     return _core.integrate_batch(
         potential_spec_core, layout_spec, methods, np.ascontiguousarray(q0, dtype=float),
         np.ascontiguousarray(p0, dtype=float), [int(s) for s in n_steps], save_every, form,
         bool(track), threads,
+    )
+
+
+def run_result(status: list[str], messages: list[str], steps_done, initial_energies, max_deviation,
+               samples: list[dict] | None, interrupted: bool = False, interrupted_by: str | None = None,
+               info: dict | None = None):
+    """The core's one result type (``_core.RunResult``), for a run made outside the core (the
+    Krylov path): per trajectory a status, a message, the steps done, the initial energies and
+    max deviations (trajectories × channels) and the samples (dicts of steps, q, p, energies)."""
+    return _core.RunResult(
+        list(status), list(messages), np.asarray(steps_done, dtype=np.uint64),
+        np.ascontiguousarray(initial_energies, dtype=float), np.ascontiguousarray(max_deviation, dtype=float),
+        samples, bool(interrupted), interrupted_by, info,
     )
 
 

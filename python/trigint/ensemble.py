@@ -124,10 +124,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     try:
         for i, out in _execute(client, todo, spans, batch, args, kwargs):
             results[i] = out
-            if sink is not None and not out["interrupted"]:
+            if sink is not None and not out.interrupted:
                 sink.write(i, spans[i], _chunk_arrays(out, spans[i], names, save_every, batch))
             bar.update(1)
-            if out["interrupted"]:
+            if out.interrupted:
                 interrupted = True
                 break
     except KeyboardInterrupt:
@@ -256,15 +256,16 @@ def _execute(client, todo, spans, batch, args, kwargs):
             future.cancel()
 
 
-def _chunk_arrays(out: dict, span: slice, names, save_every, batch) -> dict:
+def _chunk_arrays(out, span: slice, names, save_every, batch) -> dict:
+    """A chunk's RunResult as the arrays of the sweep's output table."""
     arrays = {
-        "max_deviation": out["max_deviation"],
-        "initial_energies": out["initial_energies"],
-        "steps_done": np.asarray(out["steps_done"], dtype=np.int64),
-        "status": np.array([STATUS_CODES[s] for s in out["status"]], dtype=np.int8),
+        "max_deviation": out.max_deviation,
+        "initial_energies": out.initial_energies,
+        "steps_done": np.asarray(out.steps_done, dtype=np.int64),
+        "status": np.array([STATUS_CODES[s] for s in out.status], dtype=np.int8),
     }
     if save_every is not None:
-        arrays.update(_padded_samples(out["samples"], _max_samples(batch, save_every), batch.q0.shape[1], len(names)))
+        arrays.update(_padded_samples(out.samples, _max_samples(batch, save_every), batch.q0.shape[1], len(names)))
     return arrays
 
 

@@ -134,8 +134,8 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
                                 bool(track_energies), every, callback)
     finally:
         close()
-    if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
-        raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
+    if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
+        raise RuntimeError(f"progress callback failed: {out.interrupted_by}")
     return _solution(problem, method, h, n_steps, out, co)
 
 
@@ -155,12 +155,13 @@ def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, pro
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
     names = energy_names(problem.n_blocks)
-    samples = out["samples"]
+    samples = out.samples[0]
+    max_deviation, initial_energies = out.max_deviation[0], out.initial_energies[0]
     if co is not None and not np.all(np.isfinite(co.modified_p)):
         # one-step form at hω = kπ with a filter whose σ has no limit there (E, A)
         k = names.index("modified_oscillatory")
         samples["energies"][:, k] = np.nan
-        out["max_deviation"][k] = out["initial_energies"][k] = np.nan
+        max_deviation[k] = initial_energies[k] = np.nan
         j = int(np.flatnonzero(~np.isfinite(co.modified_p))[0])
         warnings.warn(f"the modified oscillatory energy is undefined at h*omega[{j}] = {co.xi[j]:.12g} for "
                       f"method {method.name!r} (sigma = sinc*phi/psi has no finite limit there); it is NaN",
@@ -172,15 +173,16 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
         coords={"t": t, "step": ("t", steps)},
         attrs={"method": repr(method), "h": h},
     )
-    if out["status"] != "completed":
-        warnings.warn(out["message"], RuntimeWarning, stacklevel=3)
+    status, message = out.status[0], out.messages[0]
+    if status != "completed":
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
     return Solution(
         t=t, q=samples["q"], p=samples["p"], steps=steps, energies=energies,
-        max_deviation=dict(zip(names, out["max_deviation"].tolist(), strict=True)),
-        initial_energies=dict(zip(names, out["initial_energies"].tolist(), strict=True)),
-        h=h, n_steps=int(out["steps_done"]), n_steps_requested=n_steps,
-        status=out["status"], message=out["message"], method=method, problem=problem,
-        info=out.get("krylov") or {},
+        max_deviation=dict(zip(names, max_deviation.tolist(), strict=True)),
+        initial_energies=dict(zip(names, initial_energies.tolist(), strict=True)),
+        h=h, n_steps=int(out.steps_done[0]), n_steps_requested=n_steps,
+        status=status, message=message, method=method, problem=problem,
+        info=dict(out.info),
     )
 
 

@@ -7,94 +7,7 @@ use crate::real::Real;
 
 pub use crate::channels::{FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
 
-/// The sum of the first `m` ≤ 8 partial sums in a fixed tree: ((p0+p1)+(p2+p3))+((p4+p5)+(p6+p7)),
-/// absent parts left out. With [`pairwise!`] this is the one summation order of the kernels: the
-/// k-th term of a range goes to partial sum k mod 8, each partial sum adds its terms in order,
-/// and the tree combines them. It vectorizes (eight independent chains) and never depends on how
-/// the work is split between lanes, bundles or threads.
-#[inline(always)]
-pub fn tree<L: Real>(p: &[L; 8], m: usize) -> L {
-    // The levels written out (a loop over them is not unrolled, even for a constant m).
-    let pair = |a: usize| if m > a + 1 { p[a] + p[a + 1] } else { p[a] };
-    if m == 0 {
-        return L::zero();
-    }
-    let s01 = pair(0);
-    if m <= 2 {
-        return s01;
-    }
-    let s0123 = s01 + pair(2);
-    if m <= 4 {
-        return s0123;
-    }
-    let s45 = pair(4);
-    if m <= 6 {
-        return s0123 + s45;
-    }
-    s0123 + (s45 + pair(6))
-}
-
-/// `pairwise!(L, start, end, |i| (a, b))`: runs the body for i in start..end (in order) and
-/// returns the sums of its two terms in the fixed order of [`tree`]. Written as a macro so that
-/// the body is inlined into the unrolled chunks of eight (which the compiler vectorizes).
-macro_rules! pairwise {
-    ($l:ty, $start:expr, $end:expr, |$i:ident| $body:expr) => {{
-        let (start, end): (usize, usize) = ($start, $end);
-        let count = end - start;
-        let mut a = [<$l as $crate::real::Real>::zero(); 8];
-        let mut b = [<$l as $crate::real::Real>::zero(); 8];
-        // Chunks of eight written out (a loop this large is not unrolled by the compiler, and
-        // the partial sums would then live in memory); `base + 8 <= end` lets the compiler see
-        // that every index is below `end`, so no bounds test is left. The first chunk starts
-        // the sums.
-        macro_rules! term {
-            ($base:expr, $t:literal, $first:literal) => {{
-                let $i = $base + $t;
-                let (x, y) = $body;
-                if $first {
-                    a[$t] = x;
-                    b[$t] = y;
-                } else {
-                    a[$t] += x;
-                    b[$t] += y;
-                }
-            }};
-        }
-        macro_rules! chunk {
-            ($base:expr, $first:literal) => {{
-                term!($base, 0, $first);
-                term!($base, 1, $first);
-                term!($base, 2, $first);
-                term!($base, 3, $first);
-                term!($base, 4, $first);
-                term!($base, 5, $first);
-                term!($base, 6, $first);
-                term!($base, 7, $first);
-            }};
-        }
-        let mut base = start;
-        if base + 8 <= end {
-            chunk!(base, true);
-            base += 8;
-            while base + 8 <= end {
-                chunk!(base, false);
-                base += 8;
-            }
-        }
-        let started = count >= 8;
-        for t in 0..end - base {
-            let $i = base + t;
-            let (x, y) = $body;
-            a[t] = if started { a[t] + x } else { x };
-            b[t] = if started { b[t] + y } else { y };
-        }
-        (
-            $crate::energy::tree(&a, count),
-            $crate::energy::tree(&b, count),
-        )
-    }};
-}
-pub(crate) use pairwise;
+pub use crate::sum::tree;
 
 /// `x[i]` without a bounds test, for the kernels' inner loops: a test per element splits an
 /// unrolled chunk into blocks that the compiler does not vectorize, and a test of a loop-invariant
@@ -266,35 +179,5 @@ impl Samples {
 
     pub fn is_empty(&self) -> bool {
         self.steps.is_empty()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_tree_is_the_documented_order() {
-        let p: [f64; 8] = std::array::from_fn(|k| 1.0 + 0.1 * k as f64 + 1e-17 * k as f64);
-        let level = |v: &[f64]| -> Vec<f64> {
-            v.chunks(2)
-                .map(|c| if c.len() == 2 { c[0] + c[1] } else { c[0] })
-                .collect()
-        };
-        for m in 1..=8 {
-            let mut v = p[..m].to_vec();
-            while v.len() > 1 {
-                v = level(&v);
-            }
-            assert_eq!(tree(&p, m).to_bits(), v[0].to_bits(), "m = {m}");
-        }
-        // pairwise!: partial sum k mod 8 of the terms in order, then the tree.
-        let terms: Vec<f64> = (0..21).map(|k| (k as f64 * 0.37).sin()).collect();
-        let (s, _) = pairwise!(f64, 0, terms.len(), |i| (terms[i], 0.0));
-        let mut parts = [0.0; 8];
-        for (k, &t) in terms.iter().enumerate() {
-            parts[k % 8] = if k < 8 { t } else { parts[k % 8] + t };
-        }
-        assert_eq!(s.to_bits(), tree(&parts, 8).to_bits());
     }
 }

@@ -24,6 +24,7 @@ pub mod real;
 pub mod recursion;
 pub mod run;
 pub mod shape;
+pub mod sum;
 
 pub use channels::{channel_count, channel_names, Channel, CHANNELS};
 pub use coefficients::MethodCoefficients;

@@ -17,11 +17,12 @@
 //!   p_{n+1} = p_n − (1 − c) p_n − (s²/(hχ)) q_n + ½h (cψ/χ g_n + ψ/χ g_{n+1}).
 
 use crate::coefficients::{Coef, Weights};
-use crate::energy::{at, kinetic, modified, oscillator, pairwise, tree, Sums};
+use crate::energy::{at, kinetic, modified, oscillator, Sums};
 use crate::error::CoreResult;
 use crate::potential::Potential;
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
+use crate::sum::{pairwise, Sum8};
 
 /// What a step computes besides advancing.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -209,19 +210,16 @@ fn chunk<L: Real, T: Term<L>, const FIRST: bool>(
     (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
     store: bool,
     term: &T,
-    e: &mut [L; 8],
-    m: &mut [L; 8],
+    e: &mut Sum8<L>,
+    m: &mut Sum8<L>,
 ) {
     let (dc, qc, fc) = (load8(d, base), load8(q, base), load8(f, base));
     let (mut next, mut pc, mut qn) = ([L::zero(); 8], [L::zero(); 8], qc);
     for t in 0..8 {
         let (x, y, ee, mm) = term.at(base + t, dc[t], qc[t], fc[t]);
         (next[t], pc[t], qn[t]) = (x, y, qc[t] + x);
-        if FIRST {
-            (e[t], m[t]) = (ee, mm);
-        } else {
-            (e[t], m[t]) = (e[t] + ee, m[t] + mm);
-        }
+        e.add(t, !FIRST, ee);
+        m.add(t, !FIRST, mm);
     }
     d[base..base + 8].copy_from_slice(&next);
     if store {
@@ -233,7 +231,7 @@ fn chunk<L: Real, T: Term<L>, const FIRST: bool>(
 
 /// Observing sweep over coordinates start..end: each coordinate's `term` (its new d, p and two
 /// energy terms), q advanced unless `store` (then p is stored), and the energy terms summed in
-/// the kernels' pairwise order (see [`crate::energy::tree`]). Chunks of eight go through local
+/// the kernels' order (see [`crate::sum`]). Chunks of eight go through local
 /// arrays, which cannot alias the state, so the compiler vectorizes them.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -245,7 +243,7 @@ fn observe_range<L: Real, T: Term<L>>(
     term: &T,
 ) -> (L, L) {
     let count = end - start;
-    let (mut e, mut m) = ([L::zero(); 8], [L::zero(); 8]);
+    let (mut e, mut m) = (Sum8::new(), Sum8::new());
     let mut base = start;
     if base + 8 <= end {
         chunk::<L, T, true>(base, (q, d, p, f), store, term, &mut e, &mut m);
@@ -265,13 +263,10 @@ fn observe_range<L: Real, T: Term<L>>(
         } else {
             q[i] += x;
         }
-        (e[t], m[t]) = if started {
-            (e[t] + ee, m[t] + mm)
-        } else {
-            (ee, mm)
-        };
+        e.add(t, started, ee);
+        m.add(t, started, mm);
     }
-    (tree(&e, count), tree(&m, count))
+    (e.total(count), m.total(count))
 }
 
 /// Two-step form: observes step n (when asked) and moves the state from n to n + 1, except the

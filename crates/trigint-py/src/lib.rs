@@ -3,6 +3,7 @@
 
 mod convert;
 mod potential;
+mod result;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::RecvTimeoutError;
@@ -13,10 +14,11 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use trigint_core::{
     channel_count, channel_names, BatchLanes, Control, CoreError, Lanes, MethodCoefficients,
-    Samples, TrajectoryOutput, CHANNELS,
+    TrajectoryOutput, CHANNELS,
 };
 
 use potential::{to_2d, values_and_forces, with_potential, NativePotential};
+use result::RunResult;
 
 /// Core errors become Python exceptions here and nowhere else.
 fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
@@ -31,23 +33,8 @@ fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
     }
 }
 
-fn samples_dict<'py>(
-    py: Python<'py>,
-    s: Samples,
-    n: usize,
-    c: usize,
-) -> PyResult<Bound<'py, PyDict>> {
-    let k = s.steps.len();
-    let d = PyDict::new(py);
-    d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
-    d.set_item("q", to_2d(py, s.q, k, n)?)?;
-    d.set_item("p", to_2d(py, s.p, k, n)?)?;
-    d.set_item("energies", to_2d(py, s.energies, k, c)?)?;
-    Ok(d)
-}
-
 /// integrate(potential, layout, method, q0, p0, n_steps, save_every, form, track,
-/// progress_every, progress=None) -> dict
+/// progress_every, progress=None) -> RunResult
 ///
 /// `progress(steps_done)` is called every `progress_every` steps and may return False to stop;
 /// Ctrl-C also stops the run, which then reports "interrupted" with its samples.
@@ -67,7 +54,7 @@ fn integrate<'py>(
     track: bool,
     progress_every: u64,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<RunResult> {
     let pot = NativePotential::from_spec(potential)?;
     let lay = convert::layout(layout)?;
     let co = convert::method(method)?;
@@ -106,19 +93,16 @@ fn integrate<'py>(
         ))
     });
     let out = out.map_err(|e| to_py(e, &pot))?;
-    let (n, c) = (q0.len(), channel_count(lay.n_blocks()));
-    let d = PyDict::new(py);
-    d.set_item("status", out.status.as_str())?;
-    d.set_item("steps_done", out.steps_done)?;
-    d.set_item("message", out.message)?;
-    d.set_item("interrupted_by", pending.map(|e| e.to_string()))?;
-    d.set_item(
-        "initial_energies",
-        PyArray1::from_vec(py, out.initial_energies),
-    )?;
-    d.set_item("max_deviation", PyArray1::from_vec(py, out.max_deviation))?;
-    d.set_item("samples", samples_dict(py, out.samples, n, c)?)?;
-    Ok(d)
+    let interrupted = out.status == trigint_core::Status::Interrupted;
+    result::from_outputs(
+        py,
+        vec![out],
+        q0.len(),
+        channel_count(lay.n_blocks()),
+        true,
+        interrupted,
+        pending.map(|e| e.to_string()),
+    )
 }
 
 /// Trajectories per bundle for a vectorized Python potential: one call per bundle and step, so
@@ -131,7 +115,7 @@ type WideLanes = Lanes<{ trigint_core::MAX_LANES }>;
 const WORKER_STACK: usize = 64 << 20;
 
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
-/// threads=None) -> dict
+/// threads=None) -> RunResult
 ///
 /// Runs the batched kernel on a pool of `threads` (None: all cores) while this thread watches
 /// for Ctrl-C; on Ctrl-C the unfinished trajectories end "interrupted" and `interrupted` says so.
@@ -150,7 +134,7 @@ fn integrate_batch<'py>(
     form: &str,
     track: bool,
     threads: Option<usize>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<RunResult> {
     let pot = NativePotential::from_spec(potential)?;
     let lay = convert::layout(layout)?;
     let methods = convert::methods(methods)?;
@@ -223,40 +207,16 @@ fn integrate_batch<'py>(
         }
         Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
     };
-    let (count, c) = (out.len(), channel_count(lay.n_blocks()));
-    let d = PyDict::new(py);
-    let flat = |f: fn(&TrajectoryOutput) -> &Vec<f64>| -> Vec<f64> {
-        out.iter().flat_map(|o| f(o).clone()).collect()
-    };
-    d.set_item(
-        "initial_energies",
-        to_2d(py, flat(|o| &o.initial_energies), count, c)?,
-    )?;
-    d.set_item(
-        "max_deviation",
-        to_2d(py, flat(|o| &o.max_deviation), count, c)?,
-    )?;
-    d.set_item(
-        "status",
-        out.iter().map(|o| o.status.as_str()).collect::<Vec<_>>(),
-    )?;
-    d.set_item(
-        "messages",
-        out.iter().map(|o| o.message.clone()).collect::<Vec<_>>(),
-    )?;
-    d.set_item(
-        "steps_done",
-        PyArray1::from_vec(py, out.iter().map(|o| o.steps_done).collect()),
-    )?;
-    d.set_item("interrupted", interrupted)?;
-    if save_every.is_some() {
-        let samples = PyList::empty(py);
-        for o in out {
-            samples.append(samples_dict(py, o.samples, n, c)?)?;
-        }
-        d.set_item("samples", samples)?;
-    }
-    Ok(d)
+    let interrupted_by = interrupted.then(|| "KeyboardInterrupt".to_string());
+    result::from_outputs(
+        py,
+        out,
+        n,
+        channel_count(lay.n_blocks()),
+        save_every.is_some(),
+        interrupted,
+        interrupted_by,
+    )
 }
 
 /// U at each row and −∇U at each row.
@@ -349,6 +309,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<Evaluator>()?;
+    m.add_class::<RunResult>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
     // The schemas, written once in the core: the method rows and the energy channels.

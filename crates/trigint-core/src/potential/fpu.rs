@@ -1,9 +1,10 @@
 //! The Fermi–Pasta–Ulam chain with alternating stiff and soft springs, written out in Rust.
 
 use super::{LinearMap, Potential};
-use crate::energy::{at, pairwise, tree};
+use crate::energy::at;
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
+use crate::sum::{pairwise, Sum8};
 
 /// The FPU problem's soft springs in the variables x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ)
 /// [Hairer–Lubich–Wanner, GNI §I.5]:
@@ -101,11 +102,10 @@ impl Fpu {
         let (f0, f1) = f.split_at_mut(m);
         let (x0, x1, f0, f1) = (&x0[..m], &x1[..m], &mut f0[..m], &mut f1[..m]);
         let quarter = L::splat(0.25);
-        let mut parts = [L::zero(); 8];
+        let mut parts = Sum8::new();
         let mut term = |i: usize, d: L, d3: L| {
             if VALUE {
-                let v = quarter * (d3 * d);
-                parts[i % 8] = if i < 8 { v } else { parts[i % 8] + v };
+                parts.add(i % 8, i >= 8, quarter * (d3 * d));
             }
         };
         // Spring 0 joins the wall to the first stiff spring: d = x₀,₁ − x₁,₁.
@@ -132,7 +132,7 @@ impl Fpu {
         f0[m - 1] -= d3;
         f1[m - 1] -= d3;
         if VALUE {
-            tree(&parts, m + 1)
+            parts.total(m + 1)
         } else {
             L::zero()
         }
@@ -142,7 +142,7 @@ impl Fpu {
     /// of all springs, then the forces g₀,ᵢ = (−d³ᵢ) + d³ᵢ₊₁ and g₁,ᵢ = d³ᵢ + d³ᵢ₊₁
     /// (g₀,ₘ = (−d³ₘ) − d³ₘ₊₁, g₁,ₘ = d³ₘ − d³ₘ₊₁ at the end): the operations of the single
     /// pass, so the same forces. U is summed in the kernels' pairwise order (see
-    /// [`crate::energy::tree`]), which vectorizes.
+    /// [`crate::sum`]), which vectorizes.
     #[inline(always)]
     fn long<L: Real, const VALUE: bool>(x: &[L], f: &mut [L], ws: &mut FpuWorkspace<L>) -> L {
         let m = x.len() / 2;

@@ -233,17 +233,3 @@ impl Code {
         }
     }
 }
-
-/// Term j of `v` into partial sum j mod 8 (`v` starts at a multiple of 8).
-#[inline(always)]
-pub(super) fn add_in_eights<L: Real>(parts: &mut [L; 8], v: &[L]) {
-    let mut chunks = v.chunks_exact(8);
-    for c in &mut chunks {
-        for t in 0..8 {
-            parts[t] += c[t];
-        }
-    }
-    for (t, x) in chunks.remainder().iter().enumerate() {
-        parts[t] += *x;
-    }
-}

@@ -3,7 +3,7 @@
 
 use std::sync::OnceLock;
 
-use super::code::{add_in_eights, Code};
+use super::code::Code;
 use super::graph::Graph;
 use super::jit::{self, Compiled, Walk};
 use super::ops::{Binary, Op, ProgramSpec, Unary};
@@ -11,6 +11,7 @@ use crate::error::{CoreError, CoreResult};
 use crate::potential::linear::LinearMap;
 use crate::potential::Potential;
 use crate::real::Real;
+use crate::sum::Sum8;
 
 #[derive(Debug, Clone)]
 pub struct Program {
@@ -251,14 +252,14 @@ impl Program {
             _ => 2,
         };
         if let Some(parts) = self.eval_arguments_native(which, y, g.as_deref_mut(), values) {
-            return crate::energy::tree(&parts, y.len().min(8));
+            return parts.total(y.len());
         }
         let code = [&self.full, &self.force_only, &self.value_only][which];
         let r = &mut registers[which];
         // Σ_b V(y_b) in the fixed order of the kernels' sums: term b into partial sum b mod 8,
-        // the partial sums combined by `energy::tree` (eight independent chains, not one).
+        // the partial sums combined by a fixed tree (eight independent chains, not one).
         debug_assert!(tile.is_multiple_of(8));
-        let mut parts = [L::zero(); 8];
+        let mut parts = Sum8::new();
         for start in (0..y.len()).step_by(tile) {
             let width = tile.min(y.len() - start);
             r[..width].copy_from_slice(&y[start..start + width]);
@@ -268,15 +269,15 @@ impl Program {
                 g[start..start + width].copy_from_slice(&r[s..s + width]);
             }
             if let (true, Some(s)) = (with_value, code.value) {
-                add_in_eights(&mut parts, &r[s as usize * tile..][..width]);
+                parts.add_slice(&r[s as usize * tile..][..width], start > 0);
             }
         }
-        crate::energy::tree(&parts, y.len().min(8))
+        parts.total(y.len())
     }
 
     /// [`eval_tiles`](Self::eval_tiles) through machine code over all arguments at once (the
     /// last one alone when their number of doubles is odd): V into `values`, −V' into `g`;
-    /// returns the eight partial sums of V. None when there is no machine code.
+    /// returns the partial sums of V. None when there is no machine code.
     #[inline(always)]
     fn eval_arguments_native<L: Real>(
         &self,
@@ -284,7 +285,7 @@ impl Program {
         y: &[L],
         g: Option<&mut [L]>,
         values: &mut [L],
-    ) -> Option<[L; 8]> {
+    ) -> Option<Sum8<L>> {
         let yf = L::as_f64s(y)?;
         let pairs = &self.argument_code()?[which];
         let vf = L::as_f64s_mut(&mut values[..y.len()])?;
@@ -302,9 +303,9 @@ impl Program {
             let tail = if gf.is_empty() { gf } else { &mut gf[even..] };
             one.call(&yf[even..], tail, &mut vf[even]);
         }
-        let mut parts = [L::zero(); 8];
+        let mut parts = Sum8::new();
         if which != 1 {
-            add_in_eights(&mut parts, &values[..y.len()]);
+            parts.add_slice(&values[..y.len()], false);
         }
         Some(parts)
     }
