@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import trigint as ti
+from conftest import with_default_sigint
 from trigint import experiments
 from trigint.resonance import resonant_step_sizes
 
@@ -151,7 +152,8 @@ for kind, U in potentials.items():
 def test_ctrl_c_keeps_the_samples_for_every_potential_kind_and_form():
     """KeyboardInterrupt never escapes integrate(): a Python potential's callback sees it first,
     and the run must still return its samples with status 'interrupted'."""
-    out = subprocess.run([sys.executable, "-c", CTRL_C_SCRIPT], capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", with_default_sigint(CTRL_C_SCRIPT)], capture_output=True,
+                         text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     rows = [line.split() for line in out.stdout.splitlines()]
     assert len(rows) == 8
@@ -159,6 +161,29 @@ def test_ctrl_c_keeps_the_samples_for_every_potential_kind_and_form():
         assert status == "interrupted", (kind, form)
         assert int(steps) > 10 and int(last) == int(steps) and finite == "True", (kind, form)
         assert int(samples) == int(steps) // 10**4 + 1 + (int(steps) % 10**4 != 0), (kind, form)
+
+
+def test_ctrl_c_reaches_the_children_even_when_the_test_run_ignores_it():
+    """`make test &` in a script runs pytest with SIGINT ignored, and every child inherits that:
+    Python then installs no KeyboardInterrupt handler. The Ctrl-C tests' children restore it."""
+    import signal
+
+    code = ("import os, signal, time\n"
+            "try:\n"
+            "    os.kill(os.getpid(), signal.SIGINT)\n"
+            "    time.sleep(0.5)\n"
+            "    print('ignored')\n"
+            "except KeyboardInterrupt:\n"
+            "    print('interrupted')\n")
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        plain = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+        restored = subprocess.run([sys.executable, "-c", with_default_sigint(code)], capture_output=True, text=True,
+                                  timeout=120)
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert plain.stdout.strip() == "ignored"  # the situation the helper is for
+    assert restored.stdout.strip() == "interrupted"
 
 
 def test_false_causes_are_not_reported():
