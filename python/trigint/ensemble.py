@@ -13,13 +13,12 @@ workers.
 from __future__ import annotations
 
 import os
-import sys
 import warnings
 
 import numpy as np
 import xarray as xr
 
-from . import _check
+from . import _check, _progress
 from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
@@ -63,7 +62,9 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         killed at any moment, even while creating the store, loses at most the unfinished chunks.
         A store written by a different call is refused.
     progress : bool, optional
-        A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
+        A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more, when
+        stderr is a terminal or in a notebook; ``True`` where no bar can be drawn prints a line
+        every 10 % instead).
 
     Returns
     -------
@@ -119,7 +120,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         todo = [i for i in todo if not done[i]]
     if progress is not None and not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress: expected True, False or None, got {type(progress).__name__}")
-    show = progress if progress is not None else int(batch.n_steps.sum()) >= PROGRESS_FROM
+    show = progress if progress is not None else (int(batch.n_steps.sum()) >= PROGRESS_FROM
+                                                  and _progress.interactive())
     bar = _bar(show, len(spans), len(spans) - len(todo))
     interrupted = False
     try:
@@ -370,6 +372,4 @@ def _bar(show: bool, total: int, initial: int):
                 pass
 
         return _Silent()
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, initial=initial, unit="chunk", desc="ensemble", file=sys.stderr)
+    return _progress.bar(total, "chunk", "ensemble", initial)
