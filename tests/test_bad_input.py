@@ -81,11 +81,25 @@ def test_modified_frequency_map_must_increase_from_zero(omega_tilde, match):
         ti.ModifiedTrigonometric(omega_tilde=omega_tilde)
 
 
-def test_resonant_step_sizes_refuses_huge_orders_at_once():
-    start = time.perf_counter()
+def test_resonant_step_sizes_refuses_huge_orders_before_enumerating(monkeypatch):
+    """Refused from the count alone: the enumeration is never started (it would take hours)."""
+    from trigint.resonance import steps
+
+    def never(*args):
+        raise AssertionError("enumerated before refusing")
+
+    monkeypatch.setattr(steps, "half_ball", never)
     with pytest.raises(ValueError, match="order: 100000 .* at most"):
         resonant_step_sizes([50.0, 70.0], (1.0, 2.0), order=10**5)
-    assert time.perf_counter() - start < 1.0
+    # one frequency: 10⁶ vectors k pass, but with about 3·10⁵ values of r each
+    with pytest.raises(ValueError, match=r"order: 1000000 over h\*omega_ref in \[0, 3\] means up to 4.77e\+11 pairs "
+                                         r"\(k, r\) to visit; at most 1e\+06 .*Choose order <= 1446"):
+        resonant_step_sizes([50.0], (0.0, 3.0), order=10**6)
+    monkeypatch.undo()
+    # the largest order offered is accepted, and lists every 2πr/k in the range
+    found = resonant_step_sizes([50.0], (2.0, 2.2), order=1446)
+    assert found and all(2.0 <= s.h_omega <= 2.2 for s in found)
+    assert any(s.k == (3,) and s.r == 1 for s in found)
 
 
 def test_resonant_step_sizes_and_scan_measure_h_alike():

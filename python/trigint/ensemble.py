@@ -52,7 +52,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     threads : int, optional
         Threads per chunk (default: all cores). Results do not depend on it.
     client : dask.distributed.Client or concurrent.futures.Executor, optional
-        Runs the chunks there and gathers them; without one, chunks run here.
+        Runs the chunks there and gathers them; without one, chunks run here. For a scheduler's
+        address, pass ``dask.distributed.Client(address)``. A process pool receives the
+        potential by pickle: a :class:`PythonPotential` must then be made of functions defined
+        with ``def`` at module level (checked before anything runs).
     chunk_size : int, optional
         Trajectories per chunk (the unit of progress, of distribution and of ``store``).
     store : str or path, optional
@@ -103,12 +106,14 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         raise ValueError(f"threads: at most {MAX_THREADS}, got {threads}")
     count = len(batch)
     _check_memory(problem, batch, save_every)
+    _check_client(client)
     chunk = _chunk_size(chunk_size, count, client, threads)
     if store is not None:  # a store keeps the chunking it was made with (results do not depend on it)
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
     args = core_arguments(problem)
+    _check_sendable(client, problem.potential, args[0])
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
                   threads=None if threads is None else int(min(threads, count)))
@@ -240,17 +245,83 @@ def _chunk_size(chunk_size, count: int, client, threads) -> int:
     return max(256 * cores, -(-count // 20))
 
 
+def _is_dask(client) -> bool:
+    return hasattr(client, "gather") and hasattr(client, "scatter")
+
+
+def _check_client(client) -> None:
+    """A client that can take work: an executor that is not shut down, a connected Dask client."""
+    if client is None:
+        return
+    if not callable(getattr(client, "submit", None)):
+        hint = (f"; for a scheduler at {client!r} pass client=dask.distributed.Client({client!r})"
+                if isinstance(client, str) else "")
+        raise TypeError(f"client: expected a dask.distributed.Client or a concurrent.futures.Executor, got "
+                        f"{type(client).__name__}{hint}")
+    if _is_dask(client) and getattr(client, "status", "running") in ("closing", "closed"):
+        raise ValueError("client: this dask.distributed.Client is closed; pass a connected one")
+
+
+def _check_sendable(client, potential, spec: dict) -> None:
+    """A process pool or Dask pickles what each chunk needs; Python callables that cannot be
+    pickled (a lambda, a local function: pickle finds functions by module and name) fail
+    here, with what to do, instead of deep inside the executor."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    if client is None or spec.get("kind") != "python":
+        return
+    if _is_dask(client):
+        try:
+            import cloudpickle as pickler  # what Dask uses: lambdas and closures are fine
+        except ImportError:
+            return
+        where = "Dask sends it to its workers with cloudpickle"
+    elif isinstance(client, ProcessPoolExecutor):
+        import pickle as pickler
+
+        where = "a ProcessPoolExecutor sends it to its worker processes with pickle"
+    else:
+        return  # a thread pool shares the objects; other executors' ways of sending are unknown
+    try:
+        pickler.dumps(spec)
+        return
+    except Exception as exc:  # pickle raises PicklingError, AttributeError, TypeError, ...
+        error = exc
+    try:
+        pickler.dumps((potential._value, potential._gradient))
+    except Exception as exc:
+        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in (potential._value, potential._gradient))
+        raise TypeError(
+            f"potential: the PythonPotential's functions ({names}) cannot be pickled ({exc}), and {where}. "
+            "Define value and gradient with def at module level in a module the workers can import, run "
+            "the chunks in a ThreadPoolExecutor or a dask.distributed.Client, or compile the potential "
+            "(ExpressionPotential, ChainPotential)"
+        ) from None
+    raise TypeError(
+        f"potential: on a stiffness matrix a PythonPotential's functions are wrapped in the change of basis, "
+        f"which cannot be pickled ({error}), and {where}; run the chunks in a ThreadPoolExecutor or a "
+        "dask.distributed.Client, or compile the potential (ExpressionPotential, ChainPotential)"
+    ) from None
+
+
 def _execute(client, todo, spans, batch, args, kwargs):
     """Yields (chunk index, result) as chunks finish: here, on an executor, or on Dask."""
     if client is None:
         for i in todo:
             yield i, run_chunk(*args, batch.rows(spans[i]), **kwargs)
         return
-    if hasattr(client, "gather") and hasattr(client, "scatter"):  # dask.distributed.Client
+    if _is_dask(client):  # dask.distributed.Client
         from distributed import as_completed
     else:
         from concurrent.futures import as_completed
-    futures = {client.submit(run_chunk, *args, batch.rows(spans[i]), **kwargs): i for i in todo}
+    futures = {}
+    try:
+        for i in todo:
+            futures[client.submit(run_chunk, *args, batch.rows(spans[i]), **kwargs)] = i
+    except RuntimeError as exc:  # concurrent.futures after shutdown()
+        for future in futures:
+            future.cancel()
+        raise ValueError(f"client: cannot take work ({exc}); pass an executor that is not shut down") from None
     try:
         for future in as_completed(list(futures)):
             yield futures[future], future.result()

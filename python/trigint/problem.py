@@ -37,7 +37,9 @@ class OscillatoryProblem:
         A, symmetric positive semi-definite, n up to 5000.
     blocks : array of int, shape (n,), optional
         (Diagonal only) block label of each coordinate: 0 for every slow coordinate (and only
-        those), 1 … ℓ for the oscillatory ones, each label used.
+        those), 1 … ℓ for the oscillatory ones, each label used, the coordinates of one label
+        all of one frequency (a frequency may be split over several blocks, each with its own
+        energy I_j; a block of two frequencies is refused).
     slow_tolerance, equal_tolerance : float
         (Stiffness only) the relative tolerances above, default 1e-10 each.
 
@@ -150,7 +152,7 @@ class OscillatoryProblem:
 
     @property
     def block_frequencies(self) -> np.ndarray:
-        """The frequency of each block 1 … ℓ (the first coordinate's, if a block mixes them)."""
+        """The frequency ω_j of each block j = 1 … ℓ."""
         self.require_spectrum("block_frequencies")
         return np.array([self.omega[np.flatnonzero(self.blocks == j)[0]] for j in range(1, self.n_blocks + 1)])
 
@@ -208,4 +210,12 @@ def _check_blocks(blocks, omega: np.ndarray) -> np.ndarray:
     used = np.unique(b[b > 0])
     if used.size and not np.array_equal(used, np.arange(1, used.size + 1)):
         raise ValueError(f"blocks: oscillatory labels must be 1, 2, ..., l with none skipped, got {used.tolist()}")
+    for j in used:
+        values = np.unique(omega[b == j])
+        if values.size > 1:
+            raise ValueError(
+                f"blocks: block {int(j)} holds the frequencies {values.tolist()}; a block is a group of coordinates "
+                "of one frequency (paper §2.1: its energy I_j and its frequency omega_j enter the theory). Give "
+                "each frequency its own label (one frequency may be split over several blocks)"
+            )
     return b
