@@ -32,6 +32,7 @@ exclude_patterns = ["_build", "_generated/**/*.md", "examples/README.txt"]
 html_theme = "furo"
 html_title = f"trigint {release}"
 autosummary_generate = True
+templates_path = ["_templates"]  # the class page: methods, no __init__ or blank attribute table
 autodoc_default_options = {"members": True, "inherited-members": False}
 numpydoc_show_class_members = False
 numpydoc_validation_checks: set[str] = set()

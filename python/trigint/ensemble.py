@@ -49,6 +49,9 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         Give one: ``n_steps = round(t_end / h)`` per trajectory, or the same count for all.
     save_every : int, optional
         Keep samples every this many steps (and each trajectory's last step); default none.
+    track_energies : bool
+        Stream max |E(t_n) − E(0)| over every step (default); off, the energies are taken at
+        the samples only and ``max_deviation`` is NaN.
     threads : int, optional
         Threads per chunk (default: all cores). Results do not depend on it.
     client : dask.distributed.Client or concurrent.futures.Executor, optional
@@ -160,8 +163,27 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     """The resonance scan of the paper's Figure 3: max |E(t) − E(0)| over 0 ≤ t ≤ t_end as a
     function of hω_ref, each step size h = hω_ref/ω_ref with its own n_steps = round(t_end/h).
 
-    ``omega_ref`` defaults to the largest frequency of the problem. Other keywords go to
-    :func:`ensemble` (``threads``, ``client``, ``store``, ``progress``, ...).
+    Parameters
+    ----------
+    problem, method, q0, p0
+        As for :func:`ensemble`; q0 and p0 of shape (n,) (one initial value for every step size).
+    h_omega : array of float
+        The values hω_ref to scan, > 0.
+    omega_ref : float, optional
+        The frequency that measures h (default: the largest frequency of the problem).
+    t_end : float
+        End time of every run.
+    energy : str
+        The energy whose deviation is returned (``"oscillatory"``, ``"total"``, ``"slow"``,
+        ``"modified_oscillatory"`` or ``"oscillatory_j"``).
+    **kwargs
+        Passed to :func:`ensemble`: ``threads``, ``client``, ``chunk_size``, ``store``,
+        ``progress``, ...
+
+    Returns
+    -------
+    xarray.DataArray
+        Over ``h_omega``, with coordinates ``h``, ``n_steps`` and ``status``.
 
     Examples
     --------
@@ -192,6 +214,21 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
 def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np.ndarray, np.ndarray]:
     """Initial values (B, n) with entry `index` of q0 (or p0) moved by each δ in `deltas`
     (Figure 2's grey curves: x₀,₁(0) = 1 ± δ, |δ| ≤ 7·10⁻¹⁶).
+
+    Parameters
+    ----------
+    q0, p0 : array of float, shape (n,)
+        The initial values to perturb.
+    deltas : array of float, shape (B,)
+        One perturbation per trajectory (0 keeps the unperturbed values).
+    index : int
+        The entry that is moved.
+    component : {"q", "p"}
+        Whether q0 or p0 is moved.
+
+    Returns
+    -------
+    Q, P : arrays of shape (B, n)
 
     >>> import trigint as ti
     >>> Q, P = ti.perturb([1.0, 0.0], [0.0, 1.0], [0.0, 1e-3])

@@ -27,6 +27,23 @@ def _interactive() -> bool:
 def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=None, title=None):
     """E(t) − E(0) against t for one or several solutions (first black, the others grey).
 
+    Parameters
+    ----------
+    solutions : Solution or list of Solution
+        The runs to plot.
+    energy : str
+        The energy (a name of ``Solution.energies``).
+    ax : matplotlib Axes, optional
+        Where to draw (default: a new figure).
+    labels : list of str, optional
+        One legend label per solution.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib Axes
+
     Examples
     --------
     >>> import numpy as np, trigint as ti
@@ -57,6 +74,20 @@ def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=No
 def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
     """Saves a figure (or an axis's figure) as PNG and PDF next to each other.
 
+    Parameters
+    ----------
+    fig_or_ax : matplotlib Figure or Axes
+        What to save.
+    path : str or path
+        The file name without its suffix.
+    formats : sequence of str
+        The suffixes to write.
+
+    Returns
+    -------
+    list of path
+        The files written.
+
     Examples
     --------
     >>> import tempfile, matplotlib
@@ -85,6 +116,11 @@ def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
 def figure(ds):
     """The figure of an experiment dataset (from :func:`trigint.experiments.run`), laid out like
     the paper's; returns a matplotlib Figure.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A figure's data.
 
     Examples
     --------

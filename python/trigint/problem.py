@@ -42,6 +42,30 @@ class OscillatoryProblem:
         energy I_j; a block of two frequencies is refused).
     slow_tolerance, equal_tolerance : float
         (Stiffness only) the relative tolerances above, default 1e-10 each.
+    path : {"auto", "dense", "krylov"}
+        (Stiffness only) how A is applied. ``"dense"`` diagonalizes A once (n up to 5000) and
+        runs every kernel, ensembles included; ``"krylov"`` never forms an n × n matrix and
+        applies each matrix function of h√A by the Lanczos method, one trajectory at a time
+        (``integrate()`` only, one-step form). ``"auto"``: Krylov for a ``scipy.sparse`` A with
+        n > 5000, dense otherwise.
+    krylov_tolerance : float
+        (Krylov path) a Lanczos iteration for f(h√A)v stops when its a posteriori error
+        estimate β_k |e_kᵀ f(h√T_k) e₁| is below this times |f(h√T_k) e₁|, for every function
+        f taken from the basis; at least 1e-15.
+
+    Attributes
+    ----------
+    omega, blocks : array
+        The frequency and the block label of each coordinate (of each modal coordinate with a
+        stiffness matrix; None on the Krylov path).
+    potential : Potential
+        U.
+    stiffness : array, scipy.sparse matrix or None
+        A, read-only (None for a diagonal Ω).
+    basis : array or None
+        Q with A = QΛQᵀ on the dense path (None otherwise).
+    path : str
+        ``"diagonal"``, ``"dense"`` or ``"krylov"``.
 
     Examples
     --------
@@ -129,7 +153,13 @@ class OscillatoryProblem:
         return self._n
 
     def require_spectrum(self, what: str) -> None:
-        """Raises for a problem on the Krylov path, whose eigenvectors are never formed."""
+        """Raises ValueError for a problem on the Krylov path, whose eigenvectors are never formed.
+
+        Parameters
+        ----------
+        what : str
+            The name of what needs the spectrum, for the message.
+        """
         if self.path == "krylov":
             raise ValueError(f"{what}: not available for a stiffness matrix on the Krylov path (n = {self.dim}), "
                              "whose eigenvalues and eigenvectors are never computed; use trigint.integrate, "

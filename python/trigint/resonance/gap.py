@@ -18,6 +18,51 @@ TWO_PI = 2.0 * np.pi
 class ModifiedFrequencies:
     """The construction of Lemmas 5.1 and 5.2 and the checks of its conclusions.
 
+    Returned by :func:`modified_frequencies`.
+
+    Attributes
+    ----------
+    h, N, delta : float, int, float
+        The step size, N and δ of the construction.
+    omega : list of float
+        The distinct frequencies ω_j.
+    alpha, mu : float
+        Lemma 5.1: no |sin(½h k·ω)| with ‖k‖₁ ≤ N+1 lies in [h^(1−α+μ), h^(1−α−μ)].
+    gap : tuple of float
+        That interval, (h^(1−α+μ), h^(1−α−μ)).
+    near_resonant : list of list of int
+        The k with |sin(½h k·ω)| ≤ h^(1−α+μ), one of each ±k (the set (5.4)).
+    module_basis : list of list of int
+        An integer (Hermite) basis of the module 𝓜 they generate.
+    multiples : list of int
+        m_i with |½h k^i·ω − πm_i| minimal, for the basis vectors.
+    vartheta, varpi : list of float
+        The minimal-norm ϑ with k^i·(ω + ϑ) = 2πm_i/h, and ϖ = ω + ϑ.
+    lczero_residual : float
+        (5.1): max |sin(½h k·ϖ)| over k ∈ 𝓜 with ‖k‖₁ ≤ N+1 (0 up to rounding).
+    lcbound_min, lcbound_required : float
+        (5.2): min |sin(½h k·ϖ)| over k ∉ 𝓜 with ‖k‖₁ ≤ N+1, and the bound ½h^(1−α−μ).
+    max_shift : float
+        (5.3): max_j |ϖ_j − ω_j|.
+    gamma : float
+        γ = max_shift · h^(α−μ), the constant of (5.3) for this ϖ.
+    kappa : float
+        κ = min_j |sin(hω_j)|.
+    premise : bool
+        The lemma's premise (3.2), κ ≥ √h.
+    proof_condition : float
+        h^(2μ) γ (N+1): the proof derives (5.2) from the gap when this is ≤ 1.
+    unit_condition : float
+        γ h^(1/2−α+μ): with (3.2), the proof excludes unit vectors and their doubles from 𝓜
+        when this is < 1.
+    checks : dict of str → bool
+        Each conclusion of the lemmas, checked on the computed ϖ and 𝓜.
+    verified : bool
+        Whether every check holds.
+    within_proof : bool
+        Whether (3.2) and both conditions of the proof hold, so that every conclusion is
+        guaranteed.
+
     Examples
     --------
     >>> from trigint.resonance import modified_frequencies
@@ -30,34 +75,22 @@ class ModifiedFrequencies:
     N: int
     delta: float
     omega: list[float]
-    #: Lemma 5.1: no |sin(½h k·ω)|, ‖k‖₁ ≤ N+1, lies in [h^(1−α+μ), h^(1−α−μ)]
     alpha: float
     mu: float
     gap: tuple[float, float]
-    #: the k with |sin(½h k·ω)| ≤ h^(1−α+μ), one of each ±k (the set (5.4))
     near_resonant: list[list[int]]
-    #: integer (Hermite) basis of the module 𝓜 they generate
     module_basis: list[list[int]]
-    #: m_i with |½h k^i·ω − πm_i| minimal, for the basis vectors
     multiples: list[int]
-    #: minimal-norm ϑ with k^i·(ω + ϑ) = 2πm_i/h, and ϖ = ω + ϑ
     vartheta: list[float]
     varpi: list[float]
-    #: (5.1): max |sin(½h k·ϖ)| over k ∈ 𝓜 with ‖k‖₁ ≤ N+1
     lczero_residual: float
-    #: (5.2): min |sin(½h k·ϖ)| over k ∉ 𝓜 with ‖k‖₁ ≤ N+1, and the bound ½h^(1−α−μ)
     lcbound_min: float
     lcbound_required: float
-    #: (5.3): max_j |ϖ_j − ω_j| and γ = that times h^(α−μ)
     max_shift: float
     gamma: float
-    #: the lemma's premise (3.2): κ = min |sin(hω_j)| ≥ √h
     kappa: float
     premise: bool
-    #: h^(2μ) γ (N+1): the proof of Lemma 5.2 derives (5.2) from the gap when this is ≤ 1
     proof_condition: float
-    #: γ h^(1/2−α+μ): with (3.2), the proof excludes unit vectors and their doubles from 𝓜
-    #: when this is < 1
     unit_condition: float
     checks: dict = field(default_factory=dict)
 
@@ -110,6 +143,21 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
     pigeonhole one of M + 1 equal sub-intervals of the exponents 1 − α ∈ [1 − δ, 1 − δ/2] is free;
     α is the centre of the widest free stretch.
 
+    Parameters
+    ----------
+    h : float
+        Step size, 0 < h < 1.
+    omega : array of float or OscillatoryProblem
+        The frequencies.
+    N : int
+        N ≥ 1 of the lemma: the k with ‖k‖₁ ≤ N + 1 count.
+    delta : float
+        δ in (0, ¼].
+
+    Returns
+    -------
+    alpha, mu : float
+
     Examples
     --------
     >>> from trigint.resonance import gap
@@ -161,6 +209,21 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     can be very small. Beyond, a failed check does not contradict the lemma: at h = 0.01995,
     ω = (50, 77, 181), N = 3, γ = 1.10 and μ ≈ 10⁻³ give h^(2μ) γ (N+1) = 4.38, and (5.2)
     misses (0.0213 < 0.0231); at h = 0.001 (5.2) holds with 1.45.
+
+    Parameters
+    ----------
+    h : float
+        Step size, 0 < h < 1.
+    omega : array of float or OscillatoryProblem
+        The frequencies.
+    N : int
+        N ≥ 1 of the lemma.
+    delta : float
+        δ in (0, ¼].
+
+    Returns
+    -------
+    ModifiedFrequencies
 
     Examples
     --------

@@ -18,6 +18,17 @@ TWO_PI = 2.0 * np.pi
 class ResonantStep:
     """hω_ref at which h k·ω = 2πr; `order` is ‖k‖₁.
 
+    Attributes
+    ----------
+    h_omega : float
+        hω_ref.
+    k : tuple of int
+        The integer vector k.
+    r : int
+        The multiple of 2π, ≥ 1.
+    order : int
+        ‖k‖₁.
+
     Examples
     --------
     >>> from trigint.resonance import resonant_step_sizes
@@ -32,6 +43,7 @@ class ResonantStep:
 
     @property
     def order(self) -> int:
+        """‖k‖₁."""
         return sum(map(abs, self.k))
 
     def label(self) -> str:
@@ -67,6 +79,21 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
     The work grows with the number of vectors k (at most 10⁶) times the number of r per k
     (about the range's width times order/2π); requests of more than 10⁶ pairs (k, r), a few
     seconds of work, are refused with ValueError before anything is enumerated.
+
+    Parameters
+    ----------
+    omega : array of float
+        The frequencies.
+    h_omega_range : (float, float)
+        The interval of hω_ref to search, 0 ≤ low < high.
+    order : int
+        The largest ‖k‖₁.
+    omega_ref : float, optional
+        The frequency that measures h (default: the largest).
+
+    Returns
+    -------
+    list of ResonantStep
 
     h is measured through hω_ref (default: the largest frequency, as in `scan()`), as on the axes of
     the paper's Figure 3; for one frequency these are the hω = 2πr/k. Each step size is listed
