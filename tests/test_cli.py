@@ -108,3 +108,14 @@ def test_ensemble_in_a_log_has_no_bar():
                          progress=True)
     assert ds.status.values.tolist() == ["completed", "completed"]
     assert err.getvalue().splitlines()[-1] == "ensemble: 100% (2 of 2 chunks)" and "\r" not in err.getvalue()
+
+
+def test_the_theory_page_shows_what_trigint_resonance_prints():
+    import shlex
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "theory.md").read_text(encoding="utf-8")
+    block = page.split("```text\n", 1)[1].split("```", 1)[0]
+    command, *shown = block.splitlines()
+    out = run_cli(*shlex.split(command.removeprefix("$ "))[1:])
+    assert out.returncode == 0 and out.stdout.splitlines() == shown
