@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 from importlib import resources
 
 import numpy as np
@@ -218,11 +217,18 @@ def test_false_causes_are_not_reported():
     assert sol.status == "blow-up" and "potential is not finite at the initial state" in sol.message
 
 
-def test_ensemble_refuses_samples_that_cannot_fit_before_allocating():
-    start = time.perf_counter()
+def test_ensemble_refuses_samples_that_cannot_fit_before_allocating(monkeypatch):
+    import importlib
+
+    module = importlib.import_module("trigint.ensemble")  # the module, not the function of its name
+
+    def never(*args, **kwargs):
+        raise AssertionError("work started before the refusal")
+
+    for name in ("run_chunk", "_assemble", "_open_store"):  # nothing is run, allocated or written
+        monkeypatch.setattr(module, name, never)
     with pytest.raises(ValueError, match="save_every: 100 trajectories .* GiB"):
         ti.ensemble(PROB, "B", [Q0] * 100, [P0] * 100, h=H, n_steps=10**7, save_every=1, progress=False)
-    assert time.perf_counter() - start < 1.0
 
 
 def shipped_spec(name: str) -> str:
