@@ -42,6 +42,7 @@ docs: install
 	$(PY) -c "import tomllib; print(*tomllib.load(open('pyproject.toml', 'rb'))['project']['optional-dependencies']['docs'], sep='\n')" > $(VENV)/docs-requirements.txt
 	$(PY) -m pip install --quiet -r $(VENV)/docs-requirements.txt
 	MPLBACKEND=Agg $(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
+	$(PY) docs/check_pages.py docs/_build/html
 
 bench-deps: install
 	$(PY) -m pip install --quiet -e '.[test,bench]'
