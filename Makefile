@@ -42,6 +42,7 @@ docs: install
 	$(PY) -c "import tomllib; print(*tomllib.load(open('pyproject.toml', 'rb'))['project']['optional-dependencies']['docs'], sep='\n')" > $(VENV)/docs-requirements.txt
 	$(PY) -m pip install --quiet -r $(VENV)/docs-requirements.txt
 	MPLBACKEND=Agg $(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
+	$(PY) docs/check_pages.py docs/_build/html
 
 bench-deps: install
 	$(PY) -m pip install --quiet -e '.[test,bench]'
@@ -55,7 +56,7 @@ bench-smoke: bench-deps
 # A wheel (abi3: one file for every CPython >= 3.11) into dist/, and its test: installed into a
 # fresh environment with no Rust toolchain involved, the shipped specs and the CLI must work.
 wheel: $(PY)
-	$(PY) -m pip install --quiet 'maturin>=1.5,<2'
+	$(PY) -m pip install --quiet 'maturin>=1.9.4,<2'
 	rm -rf dist
 	$(VENV)/bin/maturin build --release --out dist
 
@@ -65,5 +66,9 @@ wheel-test: wheel
 	.venv-wheel/bin/python -m pip install --quiet dist/*.whl
 	cd /tmp && $(CURDIR)/.venv-wheel/bin/python $(CURDIR)/.ci/installed_wheel.py
 
+# Everything the targets above create, the generated documentation included (its reproduction
+# run in docs/_generated is reused by later builds until removed).
 clean:
-	rm -rf $(VENV) .venv-wheel target dist
+	rm -rf $(VENV) .venv-wheel target dist benchmarks/build
+	rm -rf docs/_build docs/_generated docs/generated docs/auto_examples docs/reproduction.md \
+		docs/sg_execution_times.rst

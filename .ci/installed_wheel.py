@@ -22,6 +22,16 @@ with tempfile.TemporaryDirectory() as out:
     assert run.returncode == 0, run.stderr[-2000:]
     assert (pathlib.Path(out) / "fig1.png").stat().st_size > 1000
     assert "claims pass" in (pathlib.Path(out) / "report.md").read_text()
+# The license travels with the package, and the metadata names it, its authors and its links.
+from importlib import metadata  # noqa: E402
+
+dist = metadata.distribution("trigint")
+licenses = [f for f in dist.files or [] if f.name == "LICENSE"]
+assert licenses and "MIT License" in licenses[0].read_text(), "LICENSE is not in the wheel"
+assert dist.metadata["License-Expression"] == "MIT", dist.metadata["License-Expression"]
+assert dist.metadata["Author"] == "The trigint developers" or "The trigint developers" in str(
+    dist.metadata.get_all("Author-email")), dist.metadata["Author"]
+assert any("10.1007/s10543-014-0527-1" in u for u in dist.metadata.get_all("Project-URL") or [])
 prob = ti.problems.fpu()
 q0, p0 = ti.problems.fpu_initial()
 sol = ti.integrate(prob, "B", q0, p0, h=0.0418879, n_steps=1000)

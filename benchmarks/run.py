@@ -18,6 +18,7 @@ import datetime as dt
 import os
 import platform
 import shutil
+import signal
 import statistics
 import subprocess
 import sys
@@ -294,7 +295,58 @@ def other_rows(smoke: bool) -> list[dict]:
                       f"{os.cpu_count()} threads", seconds=seconds, per=seconds * 1e9 / steps)]
 
 
-def write_report(limits, potentials, stiffness, krylov, others, path: Path) -> None:
+#: The child of an interrupt measurement: starts a run far too long to finish, says so, and
+#: prints the monotonic clock (system-wide on Linux) when the call has returned.
+INTERRUPT_CHILD = """
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # even if this suite runs with SIGINT ignored
+import warnings
+import numpy as np, trigint as ti
+warnings.simplefilter("ignore")
+prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
+kind = sys.argv[1]
+if kind == "python":
+    prob = ti.OscillatoryProblem(prob.omega, ti.PythonPotential(lambda q: float(q @ q) ** 2,
+                                                                lambda q: 4 * float(q @ q) * q))
+print("started", flush=True)
+if kind == "ensemble":
+    ds = ti.ensemble(prob, "B", q0, p0, h=0.01 * np.linspace(1.0, 1.1, 64), n_steps=10**10, progress=False)
+    status = sorted(set(ds.status.values))[0]
+else:
+    status = ti.integrate(prob, "B", q0, p0, h=0.01, n_steps=10**10, save_every=10**6, progress=False).status
+print(time.monotonic(), status, flush=True)
+"""
+
+
+def interrupt_rows(repeat: int) -> list[dict]:
+    """Ctrl-C latency: the time from SIGINT to the call's return with status 'interrupted', for
+    runs of 10¹⁰ steps (the tests check that Ctrl-C stops a run and keeps its samples; how fast,
+    which depends on the machine's load, is measured here)."""
+    cases = [("native", "integrate(), FPU (native), one trajectory"),
+             ("python", "integrate(), PythonPotential, one trajectory"),
+             ("ensemble", "ensemble(), FPU (native), 64 trajectories, all cores")]
+    rows = []
+    for kind, case in cases:
+        latencies = []
+        for _ in range(repeat):
+            proc = subprocess.Popen([sys.executable, "-c", INTERRUPT_CHILD, kind], stdout=subprocess.PIPE,
+                                    stderr=subprocess.DEVNULL, text=True)
+            if proc.stdout.readline().strip() != "started":
+                raise RuntimeError(f"interrupt benchmark ({kind}): the child did not start")
+            time.sleep(1.0)
+            sent = time.monotonic()
+            proc.send_signal(signal.SIGINT)
+            out, _ = proc.communicate(timeout=600)
+            returned, status = out.split()
+            if status != "interrupted":
+                raise RuntimeError(f"interrupt benchmark ({kind}): status {status!r}, expected 'interrupted'")
+            latencies.append((float(returned) - sent) * 1e3)
+        rows.append(dict(case=case, median=statistics.median(latencies), worst=max(latencies), runs=repeat,
+                         target=1000.0))
+    return rows
+
+
+def write_report(limits, potentials, stiffness, krylov, others, interrupts, path: Path) -> None:
     def table(rows):
         out = ["| workload | baseline | ns | trigint | ns | ratio | target |", "|---|---|---:|---|---:|---:|---:|"]
         for r in rows:
@@ -343,6 +395,16 @@ def write_report(limits, potentials, stiffness, krylov, others, path: Path) -> N
         "| job | seconds | ns per step |",
         "|---|---:|---:|",
         *[f"| {r['case']} | {r['seconds']:.2f} | {r['per']:.2f} |" for r in others],
+        "",
+        "## Ctrl-C latency",
+        "",
+        "From SIGINT to the call's return with status 'interrupted', runs of 10¹⁰ steps interrupted "
+        "after one second (the monotonic clock of both processes).",
+        "",
+        "| run | median ms | worst ms | runs | target |",
+        "|---|---:|---:|---:|---:|",
+        *[f"| {r['case']} | {r['median']:.0f} | {r['worst']:.0f} | {r['runs']} | ≤ {r['target']:.0f} ms"
+          f"{'' if r['median'] <= r['target'] else ' (missed)'} |" for r in interrupts],
     ]
     path.write_text("\n".join(lines) + "\n")
 
@@ -378,9 +440,10 @@ def main(argv=None) -> int:
     potentials = potential_rows(n, count, batch_steps, repeat)
     stiffness, krylov = stiffness_rows(n, count, batch_steps, repeat, args.smoke)
     others = other_rows(args.smoke)
+    interrupts = interrupt_rows(1 if args.smoke else 5)
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
-    write_report(limits, potentials, stiffness, krylov, others, out)
+    write_report(limits, potentials, stiffness, krylov, others, interrupts, out)
     plot(limits + potentials + stiffness, out.with_suffix(".png"))
     print(out.read_text())
     print(f"wrote {out}")

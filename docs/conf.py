@@ -31,7 +31,10 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "_generated/**/*.md", "examples/README.txt"]
 html_theme = "furo"
 html_title = f"trigint {release}"
+html_static_path = ["_static"]
+html_css_files = ["custom.css"]  # wrapped code lines, numbers on one line
 autosummary_generate = True
+templates_path = ["_templates"]  # the class page: methods, no __init__ or blank attribute table
 autodoc_default_options = {"members": True, "inherited-members": False}
 numpydoc_show_class_members = False
 numpydoc_validation_checks: set[str] = set()
@@ -76,8 +79,11 @@ def _reproduction_page() -> None:
         "Generated when these pages were built, by `trigint reproduce all` (the same as "
         "`make reproduce`): every figure of §4 of the paper at full resolution, and every claim the "
         "paper makes about it, measured on the data with its tolerance. " + " ".join(summary) + "\n",
-        "Where the paper's statement had to be made precise to be measured (Figure 3's peaks, "
-        "Figure 5's unstated end time), the claim says so; see the notes in `report.md`.\n",
+        "Where the paper's statement had to be made precise to be measured, the claim's wording in "
+        "the tables says how (Figure 3: the median over 9 realizations of the initial values where "
+        "the deviation is a random walk; Figure 5: the growth rate fitted on the first quarter of "
+        "the run). Each figure's spec states and explains these choices in its comments and "
+        "caption: `trigint spec fig3` prints it.\n",
     ]
     for fig, title in titles.items():
         rows = [line for line in report if line.startswith(f"| {fig} ")]

@@ -31,3 +31,15 @@ def fpu():
     prob = ti.problems.fpu(m=3, omega=50.0)
     q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
     return prob, q0, p0
+
+
+#: The first lines of every child script that is sent Ctrl-C. A process started with SIGINT
+#: ignored (``make test &`` from a script: a background job of a non-interactive shell) passes
+#: SIG_IGN on to its children, and Python then installs no KeyboardInterrupt handler, so the
+#: child would never see the signal. The child restores Python's default handler itself.
+SIGINT_DEFAULT = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+
+def with_default_sigint(script: str) -> str:
+    """`script` (Python source) preceded by :data:`SIGINT_DEFAULT`."""
+    return SIGINT_DEFAULT + script

@@ -1,5 +1,7 @@
 """Bad input gets ValueError/TypeError naming the argument and what is allowed."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -136,3 +138,34 @@ def test_bad_form(setup):
     prob, m, q0, p0 = setup
     with pytest.raises(ValueError, match="form"):
         ti.integrate(prob, m, q0, p0, h=0.01, n_steps=3, form="three-step")
+
+
+def test_near_resonant_step_size_warns_and_names_the_coordinate(setup):
+    """hω ≈ π: κ = |sin(hω)| ≈ 4e-9, far below √h; the paper's (3.2) fails and the run says so."""
+    prob, m, q0, p0 = setup
+    with pytest.warns(RuntimeWarning, match=r"numerical resonance: h\*omega\[3\] = 3\.14159265 is 3\.59e-09 from 1\*pi"
+                                            r".*\(3\.2\)"):
+        sol = ti.integrate(prob, m, q0, p0, h=3.14159265 / 50, n_steps=2000)
+    assert sol.max_deviation["oscillatory"] > 1.0  # what the warning is about: H_ω is not kept
+    # the modified frequency counts for modified methods: IMEX at hω = √12 has hω̃ = 2π/3, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ti.integrate(prob, "imex", q0, p0, h=np.sqrt(12) / 50, n_steps=100)
+        ti.integrate(prob, m, q0, p0, h=2 * np.pi / 3 / 50, n_steps=100)  # the paper's hω = 2π/3
+        ti.integrate(prob, m, q0, p0, h=np.pi / 2 / 50, n_steps=100)  # κ = 1
+
+
+@pytest.mark.parametrize(("h_omega", "omega", "warns"), [
+    (np.pi - 0.05, 50.0, True),     # h = 0.062, √h = 0.25: |sin| = 0.05 < 0.1
+    (np.pi - 0.2, 50.0, False),     # |sin| = 0.199: above the cap 0.1
+    (2 * np.pi + 0.02, 300.0, True),  # near 2π, h = 0.021: |sin| = 0.02 < min(√h, 0.1)
+    (np.pi - 0.05, 5000.0, False),  # h = 6.2e-4: |sin| = 0.05 is above √h = 0.025, (3.2) holds
+    (0.05, 50.0, False),            # near 0: not a numerical resonance
+])
+def test_resonance_warning_threshold(h_omega, omega, warns):
+    h = h_omega / omega
+    prob = ti.OscillatoryProblem([omega], ti.PolynomialPotential([0.0], [[2]]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ti.integrate(prob, "B", [0.01], [0.0], h=h, n_steps=10)
+    assert any("numerical resonance" in str(w.message) for w in caught) == warns

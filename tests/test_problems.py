@@ -93,8 +93,13 @@ def test_custom_blocks():
     omega = [0.0, 10.0, 10.0, 20.0]
     pot = ti.PolynomialPotential([1.0], [[2, 0, 0, 0]])
     assert ti.OscillatoryProblem(omega, pot).blocks.tolist() == [0, 1, 1, 2]
-    prob = ti.OscillatoryProblem(omega, pot, blocks=[0, 1, 2, 2])
+    prob = ti.OscillatoryProblem(omega, pot, blocks=[0, 1, 2, 3])  # frequency 10 split in two blocks
+    assert prob.block_frequencies.tolist() == [10.0, 10.0, 20.0]
     q, p = np.array([0.1, 0.2, 0.3, 0.4]), np.array([1.0, 2.0, 3.0, 4.0])
     e = ti.energies(prob, q, p)
     assert float(e["oscillatory_1"]) == pytest.approx(0.5 * (4 + 100 * 0.04))
-    assert float(e["oscillatory_2"]) == pytest.approx(0.5 * (9 + 100 * 0.09) + 0.5 * (16 + 400 * 0.16))
+    assert float(e["oscillatory_2"]) == pytest.approx(0.5 * (9 + 100 * 0.09))
+    assert float(e["oscillatory_3"]) == pytest.approx(0.5 * (16 + 400 * 0.16))
+    # a block of two frequencies has no ω_j: refused, naming them
+    with pytest.raises(ValueError, match=r"blocks: block 2 holds the frequencies \[10.0, 20.0\]"):
+        ti.OscillatoryProblem(omega, pot, blocks=[0, 1, 2, 2])

@@ -11,6 +11,11 @@ import numpy as np
 def sinc(x) -> np.ndarray:
     """sinc(ξ) = sin(ξ)/ξ with sinc(0) = 1 (unnormalized, unlike ``numpy.sinc``).
 
+    Parameters
+    ----------
+    x : float or array
+        ξ.
+
     Examples
     --------
     >>> import numpy as np

@@ -62,7 +62,14 @@ class Frequencies:
     largest_zeroed: float = 0.0
 
     def listing(self, limit: int = 8) -> str:
-        """'ω (xmultiplicity)' for each block; the first and last few of a long list."""
+        """'ω (xmultiplicity)' for each block; the first and last few of a long list.
+
+        Parameters
+        ----------
+        limit : int
+            The most blocks listed; a longer list shows its first ``limit − 2`` entries, a
+            count of the rest, and the last entry.
+        """
         items = [f"{w:.10g} (x{k})" for w, k in zip(self.values, self.multiplicities, strict=True)]
         if len(items) > limit:
             items = [*items[:limit - 2], f"... {len(items) - limit + 1} more ...", items[-1]]

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import warnings
 from pathlib import Path
 
 
@@ -52,27 +54,49 @@ def _run_toml(args) -> int:
     return 0 if all(c.passed for c in claims) else 1
 
 
+def _spec(args) -> int:
+    from importlib import resources
+
+    from trigint import experiments
+
+    if args.figure not in experiments.FIGURES:
+        raise ValueError(f"figure: unknown {args.figure!r}; valid: {', '.join(experiments.FIGURES)}")
+    text = (resources.files("trigint.experiments") / "specs" / f"{args.figure}.toml").read_text(encoding="utf-8")
+    sys.stdout.write(text)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from trigint import __version__
 
+    fmt = argparse.ArgumentDefaultsHelpFormatter
     parser = argparse.ArgumentParser(
-        prog="trigint",
+        prog="trigint", formatter_class=fmt,
         description="Trigonometric integrators for highly oscillatory Hamiltonian systems: integrate the "
                     "FPU problem, check the non-resonance conditions at a step size, reproduce the paper's "
-                    "figures, or run an experiment spec.")
+                    "figures, or run an experiment spec.",
+        epilog="'trigint COMMAND --help' describes each command and its defaults.")
     parser.add_argument("--version", action="version", version=f"trigint {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("fpu", help="integrate the FPU problem and plot the oscillatory energy")
-    p.add_argument("--m", type=int, default=3, help="number of stiff springs (default 3)")
-    p.add_argument("--omega", type=float, default=50.0, help="stiff frequency ω (default 50)")
-    p.add_argument("--h-omega", type=float, default=2 * 3.141592653589793 / 3, help="hω (default 2π/3)")
-    p.add_argument("--method", default="B", help="A–E, a filter alias, imex or stormer-verlet")
-    p.add_argument("--t-end", type=float, default=3000.0, help="end time (default 3000)")
-    p.add_argument("--out", default="reproduction", help="output folder for the plot (default ./reproduction)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p = sub.add_parser(
+        "fpu", formatter_class=fmt, help="integrate the FPU problem and plot the oscillatory energy",
+        description="Integrates the Fermi-Pasta-Ulam chain (m stiff springs of frequency omega, the initial "
+                    "values of Hairer-Lubich-Wanner I.5) with one method and step size h = (h*omega)/omega, "
+                    "prints the run's summary and plots the deviation of the oscillatory energy. A step size "
+                    "with h*omega near a multiple of pi is a numerical resonance: the run warns.")
+    p.add_argument("--m", type=int, default=3, help="number of stiff springs")
+    p.add_argument("--omega", type=float, default=50.0, help="stiff frequency omega")
+    p.add_argument("--h-omega", type=float, default=2 * 3.141592653589793 / 3,
+                   help="h*omega, the step size times omega; the default is 2*pi/3")
+    p.add_argument("--method", default="B", help="A-E, a filter alias (gautschi, deuflhard, ...), imex or "
+                                                 "stormer-verlet")
+    p.add_argument("--t-end", type=float, default=3000.0, help="end time")
+    p.add_argument("--out", default="reproduction", help="output folder for the plot")
     p.set_defaults(run=_fpu)
 
-    r = sub.add_parser("resonance", help="the paper's non-resonance conditions and assumptions at a step size",
+    r = sub.add_parser("resonance", formatter_class=fmt,
+                       help="the paper's non-resonance conditions and assumptions at a step size",
                        description="Evaluates, for step size h and frequencies omega, the conditions of "
                                    "Cohen, Gauckler, Hairer, Lubich (2015): kappa = min|sin(h w_j)| >= sqrt(h) "
                                    "(eq. 3.2), Assumption B on the filters, the numerical non-resonance "
@@ -80,27 +104,45 @@ def build_parser() -> argparse.ArgumentParser:
                                    "|sin(h k.w / 2)| >= sqrt(h) (eq. 3.7), with the times they guarantee.")
     r.add_argument("--h", type=float, required=True, help="step size")
     r.add_argument("--omega", type=float, nargs="+", required=True, help="frequencies (0 = slow)")
-    r.add_argument("--method", default="B", help="A–E, a filter alias, imex or stormer-verlet (default B)")
-    r.add_argument("--N-max", dest="N_max", type=int, default=10, help="largest N to test (default 10)")
-    r.add_argument("--delta", type=float, default=0.25, help="delta of Theorem 3.1 (default 1/4)")
+    r.add_argument("--method", default="B", help="A-E, a filter alias, imex or stormer-verlet")
+    r.add_argument("--N-max", dest="N_max", type=int, default=10, help="largest N to test")
+    r.add_argument("--delta", type=float, default=0.25, help="delta of Theorem 3.1")
     r.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     r.set_defaults(run=_resonance)
 
-    rp = sub.add_parser("reproduce", help="regenerate the paper's figures and measure its claims")
-    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 … fig5 or all (default)")
-    rp.add_argument("--out", default="reproduction", help="output folder (default ./reproduction)")
+    rp = sub.add_parser("reproduce", formatter_class=fmt, help="regenerate the paper's figures and measure its claims",
+                        description="Runs the paper's Figures 1-5 from their shipped specs, writes each figure "
+                                    "(PNG, PDF), its data (NetCDF) and report.md, every claim of the paper's "
+                                    "section 4 measured with its tolerance. Exit status 1 if a claim fails.")
+    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 ... fig5 or all")
+    rp.add_argument("--out", default="reproduction", help="output folder")
     rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
     rp.add_argument("--seed", type=int, default=0,
                     help="0: the paper's initial values; s >= 1: another realization set (y0,1(0) + s*1e-10), "
                          "to check that no claim passes by luck")
     rp.set_defaults(run=_reproduce)
 
-    ru = sub.add_parser("run", help="run an experiment spec (a TOML file, e.g. a copied figure spec)")
-    ru.add_argument("spec", help="path of the TOML spec, or fig1 … fig5")
-    ru.add_argument("--out", default="reproduction", help="output folder (default ./reproduction)")
+    ru = sub.add_parser("run", formatter_class=fmt, help="run an experiment spec (a TOML file)",
+                        description="Runs one experiment spec: a TOML file such as a figure's spec written by "
+                                    "'trigint spec fig3 > my.toml' and edited, or a figure's name. Writes the "
+                                    "figure, its data and the measured claims into --out.")
+    ru.add_argument("spec", help="path of the TOML spec, or fig1 ... fig5")
+    ru.add_argument("--out", default="reproduction", help="output folder")
     ru.add_argument("--quick", action="store_true", help="apply the spec's [quick] table: a reduced run")
     ru.set_defaults(run=_run_toml)
+
+    sp = sub.add_parser("spec", formatter_class=fmt, help="print a figure's experiment spec (TOML), to copy and edit",
+                        description="Prints the spec that 'trigint reproduce' runs for one figure, as TOML on "
+                                    "standard output: 'trigint spec fig3 > my.toml', edit my.toml, then "
+                                    "'trigint run my.toml'.")
+    sp.add_argument("figure", help="fig1 ... fig5")
+    sp.set_defaults(run=_spec)
     return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning from the library as one line on stderr, the way errors are printed."""
+    print(f"trigint: warning: {message}", file=sys.stderr if file is None else file)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -112,7 +154,19 @@ def main(argv: list[str] | None = None) -> int:
                 Path(args.out).mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise ValueError(f"--out: cannot create the folder {args.out!r}: {exc.strerror}") from None
-        return args.run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            code = args.run(args)
+            sys.stdout.flush()  # a closed pipe shows here, not at exit
+        return code
+    except BrokenPipeError:
+        # The reader went away (`trigint resonance ... | head`): stop quietly, as other tools do.
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())  # so that the flush at exit fails no more
+        except (OSError, ValueError, AttributeError):
+            pass
+        return 141  # 128 + SIGPIPE, the shell's status for a writer whose pipe closed
     except KeyboardInterrupt:
         print("trigint: interrupted", file=sys.stderr)
         return 130

@@ -48,12 +48,25 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
              h: float | None = None) -> xr.Dataset:
     """All energies at states (q, p) of shape (n,) or (m, n).
 
-    Returns an ``xarray.Dataset`` with ``total``, ``oscillatory`` (H_ω), ``slow``
-    (½|p₀|² + U), ``oscillatory_1`` … (the I_j) and, when `method` and `h` are given,
-    ``modified_oscillatory`` (H*_ω or H*_ω̃); over a ``sample`` dimension for 2-d input.
-
     For a stiffness matrix A the block energies are ½(|P_j p|² + ω_j²|P_j q|²) with the
     spectral projectors P_j of A, and H_slow = ½|P₀p|² + U(q).
+
+    Parameters
+    ----------
+    problem : OscillatoryProblem
+    q, p : array of float, shape (n,) or (m, n)
+        One state, or m states as rows.
+    method : Method or str, optional
+        With `h`: the method whose modified oscillatory energy (3.4) is added.
+    h : float, optional
+        The step size of `method`.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``total``, ``oscillatory`` (H_ω), ``slow`` (½|p₀|² + U), ``oscillatory_1`` … (the I_j)
+        and, when `method` and `h` are given, ``modified_oscillatory`` (H*_ω or H*_ω̃); over a
+        ``sample`` dimension for 2-d input.
 
     Examples
     --------

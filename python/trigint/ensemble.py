@@ -13,13 +13,12 @@ workers.
 from __future__ import annotations
 
 import os
-import sys
 import warnings
 
 import numpy as np
 import xarray as xr
 
-from . import _check
+from . import _check, _progress
 from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
 from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
@@ -51,10 +50,16 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         Give one: ``n_steps = round(t_end / h)`` per trajectory, or the same count for all.
     save_every : int, optional
         Keep samples every this many steps (and each trajectory's last step); default none.
+    track_energies : bool
+        Stream max |E(t_n) − E(0)| over every step (default); off, the energies are taken at
+        the samples only and ``max_deviation`` is NaN.
     threads : int, optional
         Threads per chunk (default: all cores). Results do not depend on it.
     client : dask.distributed.Client or concurrent.futures.Executor, optional
-        Runs the chunks there and gathers them; without one, chunks run here.
+        Runs the chunks there and gathers them; without one, chunks run here. For a scheduler's
+        address, pass ``dask.distributed.Client(address)``. A process pool receives the
+        potential by pickle: a :class:`PythonPotential` must then be made of functions defined
+        with ``def`` at module level (checked before anything runs).
     chunk_size : int, optional
         Trajectories per chunk (the unit of progress, of distribution and of ``store``).
     store : str or path, optional
@@ -64,7 +69,9 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         killed at any moment, even while creating the store, loses at most the unfinished chunks.
         A store written by a different call is refused.
     progress : bool, optional
-        A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
+        A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more, when
+        stderr is a terminal or in a notebook; ``True`` where no bar can be drawn prints a line
+        every 10 % instead).
     saveat : SaveAt, optional
         What to keep, as one value (replaces `save_every` and `track_energies`), the same value
         :func:`integrate` takes.
@@ -101,12 +108,14 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         raise ValueError(f"threads: at most {MAX_THREADS}, got {threads}")
     count = len(batch)
     _check_memory(problem, batch, save_every)
+    _check_client(client)
     chunk = _chunk_size(chunk_size, count, client, threads)
     if store is not None:  # a store keeps the chunking it was made with (results do not depend on it)
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
     args = core_arguments(problem)
+    _check_sendable(client, problem.potential, args[0])
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
                   threads=None if threads is None else int(min(threads, count)))
@@ -118,7 +127,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         todo = [i for i in todo if not done[i]]
     if progress is not None and not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress: expected True, False or None, got {type(progress).__name__}")
-    show = progress if progress is not None else int(batch.n_steps.sum()) >= PROGRESS_FROM
+    show = progress if progress is not None else (int(batch.n_steps.sum()) >= PROGRESS_FROM
+                                                  and _progress.interactive())
     bar = _bar(show, len(spans), len(spans) - len(todo))
     interrupted = False
     try:
@@ -152,8 +162,27 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     """The resonance scan of the paper's Figure 3: max |E(t) − E(0)| over 0 ≤ t ≤ t_end as a
     function of hω_ref, each step size h = hω_ref/ω_ref with its own n_steps = round(t_end/h).
 
-    ``omega_ref`` defaults to the largest frequency of the problem. Other keywords go to
-    :func:`ensemble` (``threads``, ``client``, ``store``, ``progress``, ...).
+    Parameters
+    ----------
+    problem, method, q0, p0
+        As for :func:`ensemble`; q0 and p0 of shape (n,) (one initial value for every step size).
+    h_omega : array of float
+        The values hω_ref to scan, > 0.
+    omega_ref : float, optional
+        The frequency that measures h (default: the largest frequency of the problem).
+    t_end : float
+        End time of every run.
+    energy : str
+        The energy whose deviation is returned (``"oscillatory"``, ``"total"``, ``"slow"``,
+        ``"modified_oscillatory"`` or ``"oscillatory_j"``).
+    **kwargs
+        Passed to :func:`ensemble`: ``threads``, ``client``, ``chunk_size``, ``store``,
+        ``progress``, ...
+
+    Returns
+    -------
+    xarray.DataArray
+        Over ``h_omega``, with coordinates ``h``, ``n_steps`` and ``status``.
 
     Examples
     --------
@@ -184,6 +213,21 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
 def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np.ndarray, np.ndarray]:
     """Initial values (B, n) with entry `index` of q0 (or p0) moved by each δ in `deltas`
     (Figure 2's grey curves: x₀,₁(0) = 1 ± δ, |δ| ≤ 7·10⁻¹⁶).
+
+    Parameters
+    ----------
+    q0, p0 : array of float, shape (n,)
+        The initial values to perturb.
+    deltas : array of float, shape (B,)
+        One perturbation per trajectory (0 keeps the unperturbed values).
+    index : int
+        The entry that is moved.
+    component : {"q", "p"}
+        Whether q0 or p0 is moved.
+
+    Returns
+    -------
+    Q, P : arrays of shape (B, n)
 
     >>> import trigint as ti
     >>> Q, P = ti.perturb([1.0, 0.0], [0.0, 1.0], [0.0, 1e-3])
@@ -237,17 +281,83 @@ def _chunk_size(chunk_size, count: int, client, threads) -> int:
     return max(256 * cores, -(-count // 20))
 
 
+def _is_dask(client) -> bool:
+    return hasattr(client, "gather") and hasattr(client, "scatter")
+
+
+def _check_client(client) -> None:
+    """A client that can take work: an executor that is not shut down, a connected Dask client."""
+    if client is None:
+        return
+    if not callable(getattr(client, "submit", None)):
+        hint = (f"; for a scheduler at {client!r} pass client=dask.distributed.Client({client!r})"
+                if isinstance(client, str) else "")
+        raise TypeError(f"client: expected a dask.distributed.Client or a concurrent.futures.Executor, got "
+                        f"{type(client).__name__}{hint}")
+    if _is_dask(client) and getattr(client, "status", "running") in ("closing", "closed"):
+        raise ValueError("client: this dask.distributed.Client is closed; pass a connected one")
+
+
+def _check_sendable(client, potential, spec: dict) -> None:
+    """A process pool or Dask pickles what each chunk needs; Python callables that cannot be
+    pickled (a lambda, a local function: pickle finds functions by module and name) fail
+    here, with what to do, instead of deep inside the executor."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    if client is None or spec.get("kind") != "python":
+        return
+    if _is_dask(client):
+        try:
+            import cloudpickle as pickler  # what Dask uses: lambdas and closures are fine
+        except ImportError:
+            return
+        where = "Dask sends it to its workers with cloudpickle"
+    elif isinstance(client, ProcessPoolExecutor):
+        import pickle as pickler
+
+        where = "a ProcessPoolExecutor sends it to its worker processes with pickle"
+    else:
+        return  # a thread pool shares the objects; other executors' ways of sending are unknown
+    try:
+        pickler.dumps(spec)
+        return
+    except Exception as exc:  # pickle raises PicklingError, AttributeError, TypeError, ...
+        error = exc
+    try:
+        pickler.dumps((potential._value, potential._gradient))
+    except Exception as exc:
+        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in (potential._value, potential._gradient))
+        raise TypeError(
+            f"potential: the PythonPotential's functions ({names}) cannot be pickled ({exc}), and {where}. "
+            "Define value and gradient with def at module level in a module the workers can import, run "
+            "the chunks in a ThreadPoolExecutor or a dask.distributed.Client, or compile the potential "
+            "(ExpressionPotential, ChainPotential)"
+        ) from None
+    raise TypeError(
+        f"potential: on a stiffness matrix a PythonPotential's functions are wrapped in the change of basis, "
+        f"which cannot be pickled ({error}), and {where}; run the chunks in a ThreadPoolExecutor or a "
+        "dask.distributed.Client, or compile the potential (ExpressionPotential, ChainPotential)"
+    ) from None
+
+
 def _execute(client, todo, spans, batch, args, kwargs):
     """Yields (chunk index, result) as chunks finish: here, on an executor, or on Dask."""
     if client is None:
         for i in todo:
             yield i, run_chunk(*args, batch.rows(spans[i]), **kwargs)
         return
-    if hasattr(client, "gather") and hasattr(client, "scatter"):  # dask.distributed.Client
+    if _is_dask(client):  # dask.distributed.Client
         from distributed import as_completed
     else:
         from concurrent.futures import as_completed
-    futures = {client.submit(run_chunk, *args, batch.rows(spans[i]), **kwargs): i for i in todo}
+    futures = {}
+    try:
+        for i in todo:
+            futures[client.submit(run_chunk, *args, batch.rows(spans[i]), **kwargs)] = i
+    except RuntimeError as exc:  # concurrent.futures after shutdown()
+        for future in futures:
+            future.cancel()
+        raise ValueError(f"client: cannot take work ({exc}); pass an executor that is not shut down") from None
     try:
         for future in as_completed(list(futures)):
             yield futures[future], future.result()
@@ -370,6 +480,4 @@ def _bar(show: bool, total: int, initial: int):
                 pass
 
         return _Silent()
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, initial=initial, unit="chunk", desc="ensemble", file=sys.stderr)
+    return _progress.bar(total, "chunk", "ensemble", initial)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import sys
 import warnings
 from collections.abc import Callable
 
@@ -11,6 +10,7 @@ import numpy as np
 import xarray as xr
 
 from . import _check, _native
+from . import _progress as progress_report
 from .energies import energy_names
 from .methods import Method, resolve_method
 from .potentials import PythonPotential
@@ -39,6 +39,9 @@ def _sample_memory_limit() -> int:
 
 #: refuse runs whose samples would need more memory than this
 MAX_SAMPLE_BYTES = _sample_memory_limit()
+
+#: integrate() warns when |sin(hω̃_j)| < min(√h, this) for some hω̃_j > π/2 (see its docstring)
+NEAR_RESONANCE_SIN = 0.1
 
 
 def sample_bytes(problem, samples: int) -> int:
@@ -73,15 +76,13 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         Stream max |E(t_n) − E(0)| over every step (default). Off, energies are computed only
         at the samples and `max_deviation` is NaN.
     progress : bool or callable, optional
-        A tqdm bar over steps (default: for runs of 10⁷ steps or more), or a callable
-        ``progress(steps_done)`` that may return False to stop.
+        A tqdm bar over steps (default: for runs of 10⁷ steps or more, when stderr is a
+        terminal or in a notebook; ``True`` where no bar can be drawn, as in a log file, prints
+        a line every 10 % instead), or a callable ``progress(steps_done)`` that may return
+        False to stop.
     saveat : SaveAt, optional
         What to keep, as one value (replaces `save_every` and `track_energies`);
         ``SaveAt(every=None)`` keeps step 0 and the last step only.
-
-    A problem with a large sparse stiffness matrix (``path="krylov"``) is stepped in the
-    one-step form (the same method; the two-step form's momentum divides by χ(h√A)) with each
-    matrix function applied by the Lanczos method; ``Solution.info`` reports the iterations.
 
     Returns
     -------
@@ -89,6 +90,25 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         Memory is O(samples): 10⁹ steps with ``save_every=10**6`` keep 1001 states. A run whose
         state turns non-finite stops with status ``"blow-up"``; Ctrl-C stops it with
         ``"interrupted"``; both keep every sample taken.
+
+    Warns
+    -----
+    RuntimeWarning
+        When some hω̃_j (hω_j for trigonometric methods, the modified frequency for modified
+        methods) lies near a non-zero multiple of π: |sin(hω̃_j)| < min(√h, 0.1) with
+        hω̃_j > π/2. Below √h the paper's non-resonance condition (3.2), κ = min_j |sin(hω̃_j)|
+        ≥ √h, fails, and the error bounds of its Theorems 3.1 and 3.2 grow like 1/κ: the
+        energies may drift far or blow up (FPU at hω = 3.14159265: a deviation of 10⁴). The cap
+        0.1 keeps step sizes outside the theory's regime of small h (h > 0.01, where √h > 0.1)
+        from being warned far from the resonance. Exactly at a multiple of π the two-step form
+        is undefined and raises ValueError. Also warns when a run stops early (blow-up, Ctrl-C).
+
+    Notes
+    -----
+    A problem with a large sparse stiffness matrix (``path="krylov"``) is stepped in the
+    one-step form (the same method; the two-step form's momentum divides by χ(h√A)) with each
+    matrix function applied by the Lanczos method; ``Solution.info`` reports the iterations.
+    Its frequencies are never computed, so no resonance warning is given there.
 
     Examples
     --------
@@ -126,17 +146,39 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     if problem.path == "krylov":
         return _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track_energies, progress)
     co = method.coefficients(h, problem.omega, form=form)
+    _warn_near_resonance(co, method)
     python_potential = isinstance(problem.potential, PythonPotential)
     every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
     callback, close = _progress(progress, n_steps, python_potential)
+    out = None
     try:
         out = _native.integrate(problem, co, q0, p0, n_steps, save_every, form,
                                 bool(track_energies), every, callback)
     finally:
-        close()
+        close(None if out is None else int(out.steps_done[0]))
     if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
         raise RuntimeError(f"progress callback failed: {out.interrupted_by}")
     return _solution(problem, method, h, n_steps, out, co)
+
+
+def _warn_near_resonance(co, method: Method) -> None:
+    """The warning of integrate()'s docstring: hω̃_j near a non-zero multiple of π."""
+    xt = np.where(co.omega > 0, co.xi_tilde, 0.0)
+    kappa = np.abs(np.sin(xt))
+    bound = min(float(np.sqrt(co.h)), NEAR_RESONANCE_SIN)
+    near = np.flatnonzero((xt > np.pi / 2) & (kappa < bound))
+    if near.size == 0:
+        return
+    j = int(near[np.argmin(kappa[near])])
+    k = int(np.rint(xt[j] / np.pi))
+    name = "h*omega" if co.xi_tilde[j] == co.xi[j] else "h*omega_tilde"
+    warnings.warn(
+        f"numerical resonance: {name}[{j}] = {xt[j]:.10g} is {abs(xt[j] - k * np.pi):.3g} from {k}*pi; "
+        f"|sin({name}[{j}])| = {kappa[j]:.3g} < {bound:.3g} = min(sqrt(h), {NEAR_RESONANCE_SIN:g}), so the "
+        f"non-resonance condition (3.2) of Cohen, Gauckler, Hairer, Lubich (2015) fails and the energies may "
+        f"drift or blow up (method {method.name!r}, h = {co.h:.6g}). Choose h with {name}[{j}] away from "
+        "multiples of pi; trigint.resonance.analyze(h, omega) checks a step size",
+        RuntimeWarning, stacklevel=3)
 
 
 def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, progress) -> Solution:
@@ -145,11 +187,12 @@ def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, pro
     from . import _krylov
 
     callback, close = _progress(progress, n_steps, True)
+    out = None
     try:
         out = _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback,
                                 problem.krylov_tolerance)
     finally:
-        close()
+        close(None if out is None else int(out.steps_done[0]))
     return _solution(problem, method, h, n_steps, out)
 
 
@@ -230,17 +273,22 @@ def _state(x, name: str, n: int) -> np.ndarray:
 def _progress(progress, n_steps: int, slow: bool):
     """A (callback, close) pair: a tqdm bar, the user's callable, or nothing."""
     if callable(progress) and not isinstance(progress, bool):
-        return progress, lambda: None
+        return progress, lambda done=None: None
     if progress is not None and not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress: expected True, False, None or a callable, got {type(progress).__name__}")
-    show = progress if progress is not None else (n_steps >= PROGRESS_BAR_FROM or (slow and n_steps >= 10**5))
+    long_run = n_steps >= PROGRESS_BAR_FROM or (slow and n_steps >= 10**5)
+    show = progress if progress is not None else (long_run and progress_report.interactive())
     if not show:
-        return None, lambda: None
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=n_steps, unit="step", unit_scale=True, file=sys.stderr, desc="integrate")
+        return None, lambda done=None: None
+    bar = progress_report.bar(n_steps, "step", "integrate", unit_scale=True)
 
     def update(done: int) -> None:
         bar.update(done - bar.n)
 
-    return update, bar.close
+    def close(done: int | None = None) -> None:
+        """The bar at the last step taken (the core reports every 2¹⁰ or 2²⁰ steps), closed."""
+        if done is not None:
+            update(int(done))
+        bar.close()
+
+    return update, close

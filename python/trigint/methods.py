@@ -30,6 +30,33 @@ class Coefficients:
     """Per-coordinate numbers of a method at step size h (all arrays of shape (n,)).
 
     For slow coordinates (ω = 0) everything is that of Störmer–Verlet: c = χ = ψ = φ = 1.
+    Returned by :meth:`Method.coefficients`; the kernels run on these numbers alone.
+
+    Attributes
+    ----------
+    h : float
+        The step size.
+    omega : array
+        The frequencies ω_i.
+    xi : array
+        hω_i.
+    xi_tilde : array
+        hω̃_i, the modified frequencies times h (equal to `xi` for trigonometric methods).
+    cos, sin : array
+        cos(hω̃_i) and sin(hω̃_i).
+    one_minus_cos : array
+        1 − cos(hω̃_i) = 2 sin²(½hω̃_i), to full relative precision (the kernels use it).
+    chi, psi, phi : array
+        χ(hω̃_i), ψ(hω̃_i), φ(hω̃_i): the momentum factor and the two filters of (2.5).
+    sigma : array
+        σ(hω̃_i) = sinc(hω̃_i) φ/ψ (paper (3.3)); 0 on slow coordinates.
+    modified_p, modified_q : array
+        Weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4); NaN where σ is
+        undefined (the one-step form at hω = kπ for some filters).
+    psi_over_chi, sin2_over_h_chi : array
+        The one-step form's numbers ψ/χ and sin²(hω̃)/(hχ), with their limits where χ = 0.
+    symplectic : bool
+        Whether ψ = χφ at every oscillatory coordinate (paper (2.4)).
 
     Examples
     --------
@@ -41,24 +68,17 @@ class Coefficients:
 
     h: float
     omega: np.ndarray
-    #: hω
     xi: np.ndarray
-    #: hω̃ (equal to hω for trigonometric methods)
     xi_tilde: np.ndarray
     cos: np.ndarray
-    #: 1 − cos(hω̃) = 2 sin²(½hω̃), to full relative precision (the kernels use it)
     one_minus_cos: np.ndarray
     sin: np.ndarray
     chi: np.ndarray
     psi: np.ndarray
     phi: np.ndarray
-    #: σ(hω̃) = sinc(hω̃) φ/ψ (paper (3.3)); 0 on slow coordinates
     sigma: np.ndarray
-    #: weights of ½p_i² and ½q_i² in the modified oscillatory energy (3.4); NaN where σ is
-    #: undefined (one-step form at hω = kπ for some filters)
     modified_p: np.ndarray
     modified_q: np.ndarray
-    #: the one-step form's numbers ψ/χ and sin²(hω̃)/(hχ), with their limits where χ = 0
     psi_over_chi: np.ndarray
     sin2_over_h_chi: np.ndarray
 
@@ -96,11 +116,26 @@ class Method(ABC):
     def coefficients(self, h: float, omega, form: str = "two-step") -> Coefficients:
         """The per-coordinate coefficients at step size h for frequencies omega.
 
-        Raises ValueError where the method is undefined: in the two-step form wherever
-        χ(hω̃_j) = 0 (for the trigonometric methods hω_j a non-zero multiple of π: the momentum
-        divides by χ); in the one-step form only where ψ/χ has no finite limit there (for
-        methods B and C it is φ, for E sinc; A and D need an even multiple of π); or a
-        step-size restriction.
+        Parameters
+        ----------
+        h : float
+            Step size, > 0.
+        omega : array of float, shape (n,)
+            Frequencies ω_i ≥ 0 (0: slow).
+        form : {"two-step", "one-step"}
+            The form the coefficients are for (they differ only where χ(hω̃) = 0).
+
+        Returns
+        -------
+        Coefficients
+
+        Raises
+        ------
+        ValueError
+            Where the method is undefined: in the two-step form wherever χ(hω̃_j) = 0 (for the
+            trigonometric methods hω_j a non-zero multiple of π: the momentum divides by χ); in
+            the one-step form only where ψ/χ has no finite limit there (for methods B and C it
+            is φ, for E sinc; A and D need an even multiple of π); or a step-size restriction.
         """
         h = _check.step_size(h)
         omega = np.asarray(omega, dtype=float).reshape(-1)
@@ -201,11 +236,28 @@ class Method(ABC):
             )
 
     def is_symplectic(self, h: float, omega) -> bool:
-        """Whether the method is symplectic at step size h for these frequencies."""
+        """Whether the method is symplectic at step size h for these frequencies: ψ = χφ at
+        every hω̃_j (paper (2.4)).
+
+        Parameters
+        ----------
+        h : float
+            Step size.
+        omega : array of float
+            Frequencies.
+        """
         return self.coefficients(h, omega).symplectic
 
     def sigma(self, h: float, omega) -> np.ndarray:
-        """σ(hω̃_i) = sinc(hω̃_i) φ/ψ per coordinate (paper (3.3)); 0 on slow coordinates."""
+        """σ(hω̃_i) = sinc(hω̃_i) φ/ψ per coordinate (paper (3.3)); 0 on slow coordinates.
+
+        Parameters
+        ----------
+        h : float
+            Step size.
+        omega : array of float
+            Frequencies.
+        """
         return self.coefficients(h, omega).sigma
 
     def __repr__(self) -> str:
@@ -234,6 +286,8 @@ class Trigonometric(Method):
         A name above. Give either a name or `psi` and `phi`.
     psi, phi : callable, optional
         Even functions of ξ = hω with ψ(0) = φ(0) = 1, evaluated once per run at the hω_j.
+    name : str, optional
+        The name shown in reports and plots (default: the filter's letter, or ``"custom"``).
 
     Examples
     --------
@@ -302,6 +356,8 @@ class ModifiedTrigonometric(Method):
         χ(ξ̃); default sinc.
     omega_tilde_inverse : callable, optional
         ξ̃ ↦ ξ; found by bisection if omitted.
+    name : str
+        The name shown in reports and plots.
 
     Examples
     --------
@@ -353,12 +409,24 @@ class ModifiedTrigonometric(Method):
             )
 
     def modified_h_omega(self, xi):
-        """hω ↦ hω̃, vectorized."""
+        """hω ↦ hω̃, vectorized.
+
+        Parameters
+        ----------
+        xi : float or array
+            Values of hω ≥ 0.
+        """
         x = np.asarray(xi, dtype=float)
         return evaluate(self._omega_tilde, x.reshape(-1), "omega_tilde").reshape(x.shape)
 
     def h_omega_from_modified(self, xi_tilde):
-        """The inverse map hω̃ ↦ hω, vectorized."""
+        """The inverse map hω̃ ↦ hω, vectorized.
+
+        Parameters
+        ----------
+        xi_tilde : float or array
+            Values of hω̃ ≥ 0 in the range of :meth:`modified_h_omega`.
+        """
         y = np.asarray(xi_tilde, dtype=float)
         if self._inverse is not None:
             return evaluate(self._inverse, y.reshape(-1), "omega_tilde_inverse").reshape(y.shape)
@@ -375,7 +443,7 @@ class ModifiedTrigonometric(Method):
 
 
 class AlphaMethod(ModifiedTrigonometric):
-    """The symplectic α-family (2.6):
+    """The symplectic α-family (2.6) of modified trigonometric methods.
 
         q_{n+1} − 2q_n + q_{n−1} + h²Ω² q_n + α h²Ω² (q_{n+1} − 2q_n + q_{n−1}) = h² g(q_n),
         2h p_n = (I + α h²Ω²)(q_{n+1} − q_{n−1}).
@@ -384,6 +452,13 @@ class AlphaMethod(ModifiedTrigonometric):
     ψ = χ = 1 − 4α sin²(½hω̃) = 1/(1 + αh²ω²). Second order, symmetric, symplectic.
     For α < ¼ it needs hω < 2/√(1 − 4α). α = 0 is Störmer–Verlet, α = ¼ the IMEX method
     of Zhang–Skeel and Stern–Grinspun. Paper §2.3 and Theorem 3.2.
+
+    Parameters
+    ----------
+    alpha : float
+        α ≥ 0.
+    name : str, optional
+        The name shown in reports and plots (default ``"alpha=<α>"``).
 
     Examples
     --------

@@ -29,6 +29,23 @@ def _interactive() -> bool:
 def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=None, title=None):
     """E(t) − E(0) against t for one or several solutions (first black, the others grey).
 
+    Parameters
+    ----------
+    solutions : Solution or list of Solution
+        The runs to plot.
+    energy : str
+        The energy (a name of ``Solution.energies``).
+    ax : matplotlib Axes, optional
+        Where to draw (default: a new figure).
+    labels : list of str, optional
+        One legend label per solution.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib Axes
+
     Examples
     --------
     >>> import numpy as np, trigint as ti
@@ -59,6 +76,20 @@ def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=No
 def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
     """Saves a figure (or an axis's figure) as PNG and PDF next to each other.
 
+    Parameters
+    ----------
+    fig_or_ax : matplotlib Figure or Axes
+        What to save.
+    path : str or path
+        The file name without its suffix.
+    formats : sequence of str
+        The suffixes to write.
+
+    Returns
+    -------
+    list of path
+        The files written.
+
     Examples
     --------
     >>> import tempfile, matplotlib
@@ -88,6 +119,11 @@ def figure(ds):
     """The figure of an experiment dataset (from :func:`trigint.experiments.run`), laid out like
     the paper's; returns a matplotlib Figure.
 
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A figure's data.
+
     Examples
     --------
     >>> import matplotlib
@@ -103,13 +139,35 @@ def figure(ds):
             "methods": _plot_methods}[kind](ds)
 
 
-def _caption(fig, ds, y=0.0):
+#: the page width (inches) at which the figures' fonts have their nominal size: a figure
+#: shown at the width of a page is scaled by PAGE_WIDTH / its width, so a wider figure gets
+#: proportionally larger fonts (the five panels of Figure 3)
+PAGE_WIDTH = 7.0
+#: the caption's font size (points) on a figure PAGE_WIDTH wide
+CAPTION_POINTS = 10.0
+
+
+def _font_scale(fig) -> float:
+    return max(1.0, fig.get_figwidth() / PAGE_WIDTH)
+
+
+def _caption(fig, ds) -> None:
+    """Lays the axes out above the spec's caption and draws it: the figure grows by the
+    caption's height, and the caption's font scales with the figure's width, so that it stays
+    as legible as the rest when the figure is shown at the width of a page."""
     import textwrap
 
-    text = textwrap.fill(ds.attrs.get("caption", ""), 120)
+    text = textwrap.fill(" ".join(ds.attrs.get("caption", "").split()), 95)
     if ds.attrs.get("quick"):
         text += "\n(reduced run: --quick)"
-    fig.text(0.01, y, text, fontsize=7, va="bottom", ha="left", wrap=True)
+    size = CAPTION_POINTS * _font_scale(fig)
+    lines = text.count("\n") + 1 if text.strip() else 0
+    height = lines * size * 1.3 / 72 + 0.2  # inches: the lines and a margin
+    width, old = fig.get_size_inches()
+    fig.set_size_inches(width, old + height)
+    fig.tight_layout(rect=(0, height / (old + height), 1, 1))
+    if lines:
+        fig.text(0.01, 0.1 / (old + height), text, fontsize=size, va="bottom", ha="left")
 
 
 def _plot_families(ds):
@@ -130,7 +188,6 @@ def _plot_families(ds):
         ax.set_xlim(0, float(ds.t_end.values[i]))
         ax.legend(fontsize=6, ncol=2, frameon=False, loc="upper left")
     fig.suptitle(ds.attrs["title"], fontsize=10)
-    fig.tight_layout(rect=(0, 0.09, 1, 1))
     _caption(fig, ds)
     return fig
 
@@ -154,7 +211,6 @@ def _plot_perturbed(ds):
         _frame_majority(ax, ds.deviation.values[i][rows])
     axes[-1, 0].set_xlabel("t")
     fig.suptitle(ds.attrs["title"], fontsize=10)
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
     _caption(fig, ds)
     return fig
 
@@ -176,6 +232,7 @@ def _plot_scan(ds):
     plt = _pyplot()
     n = ds.sizes["panel"]
     fig, axes = plt.subplots(1, n, figsize=(2.3 * n, 4.4), sharey=True, squeeze=False)
+    f = _font_scale(fig)  # five panels are wider than a page: larger fonts, legible when shrunk
     labels = ds.attrs["centre_labels"].split("|")
     top = float(np.nanmax([np.nanmax(ds.max_deviation.values),
                            np.nanmax(ds.realizations.values) if "realizations" in ds and
@@ -186,7 +243,7 @@ def _plot_scan(ds):
             k, r = int(ds.resonance_k.values[j]), int(ds.resonance_r.values[j])
             ax.axvline(x, color="tab:red", lw=0.6, ls="--", alpha=0.4 + 0.6 / k)
             if k <= 8:
-                ax.text(x, 1.01, f"2π·{r}/{k}" if r > 1 else f"2π/{k}", fontsize=6, ha="center", va="bottom",
+                ax.text(x, 1.01, f"2π·{r}/{k}" if r > 1 else f"2π/{k}", fontsize=6 * f, ha="center", va="bottom",
                         color="tab:red", transform=ax.get_xaxis_transform())
         k, r = int(ds.centre_k.values[i]), int(ds.centre_r.values[i])
         if k:
@@ -200,17 +257,16 @@ def _plot_scan(ds):
                             label=f"range of {runs.shape[0]} realizations")
             ax.plot(x, ds.max_deviation.values[i], lw=0.4, color="0.45", label="standard data")
             ax.plot(x, np.nanmedian(runs, axis=0), lw=0.7, color="black", label="median")
-            ax.legend(fontsize=5, frameon=False, loc="upper left")
+            ax.legend(fontsize=5 * f, frameon=False, loc="upper left")
         else:
             ax.plot(x, ds.max_deviation.values[i], lw=0.6, color="black")
         ax.set_yscale("log")
-        ax.set_title(f"centre {labels[i].replace('*', '').replace('pi', 'π')}", fontsize=9, pad=14)
-        ax.set_xlabel("hω")
-        ax.tick_params(labelsize=6)
-    axes[0, 0].set_ylabel(f"max |H_ω(t) − H_ω(0)|, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}", fontsize=8)
+        ax.set_title(f"centre {labels[i].replace('*', '').replace('pi', 'π')}", fontsize=9 * f, pad=14 * f)
+        ax.set_xlabel("hω", fontsize=8 * f)
+        ax.tick_params(labelsize=7 * f)
+    axes[0, 0].set_ylabel(f"max |H_ω(t) − H_ω(0)|, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}", fontsize=8 * f)
     axes[0, 0].set_ylim(top=top * 1.5)
-    fig.suptitle(ds.attrs["title"], fontsize=10)
-    fig.tight_layout(rect=(0, 0.16, 1, 1))
+    fig.suptitle(ds.attrs["title"], fontsize=10 * f)
     _caption(fig, ds)
     return fig
 
@@ -230,6 +286,5 @@ def _plot_methods(ds):
         ax.legend(fontsize=7, frameon=False)
     axes[-1, 0].set_xlabel("t")
     fig.suptitle(ds.attrs["title"], fontsize=10)
-    fig.tight_layout(rect=(0, 0.09, 1, 1))
     _caption(fig, ds)
     return fig

@@ -26,6 +26,15 @@ from . import _check, _native, _tape
 class Potential(ABC):
     """Base class: a potential U with its gradient, evaluated row by row on arrays.
 
+    Subclasses describe U to the core; users build one of :class:`FPUPotential`,
+    :class:`ExpressionPotential`, :class:`ChainPotential`, :class:`PolynomialPotential` or
+    :class:`PythonPotential`.
+
+    Attributes
+    ----------
+    dim : int or None
+        The number of coordinates U acts on; None when any number fits (Python callables).
+
     Examples
     --------
     >>> import trigint as ti
@@ -49,6 +58,13 @@ class Potential(ABC):
         return None
 
     def check_dim(self, n: int) -> None:
+        """Raises ValueError unless U acts on n coordinates.
+
+        Parameters
+        ----------
+        n : int
+            The problem's number of coordinates.
+        """
         if self.dim is not None and self.dim != n:
             raise ValueError(
                 f"potential: {type(self).__name__} acts on {self.dim} coordinates, "
@@ -62,12 +78,24 @@ class Potential(ABC):
         return values, forces, np.ndim(q) == 1
 
     def value(self, q) -> np.ndarray | float:
-        """U(q) for q of shape (n,) (returns a float) or (m, n) (returns shape (m,))."""
+        """U(q) for q of shape (n,) (returns a float) or (m, n) (returns shape (m,)).
+
+        Parameters
+        ----------
+        q : array of float, shape (n,) or (m, n)
+            One state, or m states as rows.
+        """
         values, _, one = self._evaluate(q)
         return float(values[0]) if one else values
 
     def gradient(self, q) -> np.ndarray:
-        """∇U(q) for q of shape (n,) or (m, n), same shape as q."""
+        """∇U(q) for q of shape (n,) or (m, n), same shape as q.
+
+        Parameters
+        ----------
+        q : array of float, shape (n,) or (m, n)
+            One state, or m states as rows.
+        """
         _, forces, one = self._evaluate(q)
         return -forces[0] if one else -forces
 
@@ -91,7 +119,17 @@ def _count(value, name: str, minimum: int = 1) -> int:
 
 
 def fpu_original_basis(m: int) -> np.ndarray:
-    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal)."""
+    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal).
+
+    Parameters
+    ----------
+    m : int
+        The number of stiff springs (2m particles, 2m coordinates).
+
+    Returns
+    -------
+    array of shape (2m, 2m)
+    """
     t = np.zeros((2 * m, 2 * m))
     r = np.sqrt(0.5)
     for i in range(m):
@@ -111,6 +149,13 @@ class FPUPotential(Potential):
     With ``coordinates="original"`` the same springs as a function of the particles'
     positions q₁ … q₂ₘ: U(q) = Σᵢ₌₀^m (q₂ᵢ₊₁ − q₂ᵢ)⁴ with q₀ = q₂ₘ₊₁ = 0, evaluated as U(x(q))
     through the orthogonal map x = Tᵀq of :func:`trigint.problems.fpu_original_basis`.
+
+    Parameters
+    ----------
+    m : int
+        The number of stiff springs (≥ 1); U acts on 2m coordinates.
+    coordinates : {"diagonal", "original"}
+        The variables x of the modal (diagonal) form, or the particles' positions q.
 
     Examples
     --------
@@ -293,6 +338,17 @@ class PolynomialPotential(Potential):
         Nothing is expanded: this is an :class:`ExpressionPotential` of `expr` as written (a
         fourth power of a linear form stays one), so it runs at the speed of the expression.
 
+        Parameters
+        ----------
+        expr : sympy.Expr or str
+            A polynomial in `symbols` (and no other symbol).
+        symbols : sequence of sympy.Symbol or str
+            The coordinates q₁ … qₙ, in the problem's order.
+
+        Returns
+        -------
+        ExpressionPotential
+
         >>> import sympy as sp, trigint as ti
         >>> q0, q1, q2 = sp.symbols("q0 q1 q2")
         >>> ti.PolynomialPotential.from_sympy(sp.Rational(1, 100) * q1 * q2, [q0, q1, q2]).dim
@@ -350,7 +406,10 @@ class ChainPotential(Potential):
     n : int
         Number of coordinates.
 
-    Add groups of terms with :meth:`add` (chainable).
+    Notes
+    -----
+    A new chain has no terms: add groups of terms with :meth:`add`, which returns the chain,
+    so that calls can be chained.
 
     Examples
     --------
@@ -373,17 +432,28 @@ class ChainPotential(Potential):
             params: Mapping | None = None) -> ChainPotential:
         """Adds Σ_b V((Lq)_b) for one function V of one variable.
 
-        Give exactly one of
-        - ``pairs``: index pairs (i, j), each the form q_j − q_i (a spring from i to j);
-        - ``sites``: indices i, each the form q_i (an on-site potential);
-        - ``matrix``: L itself, a dense array or a ``scipy.sparse`` matrix of shape (terms, n).
+        The rows of L, the linear forms, are given by exactly one of `pairs`, `sites` and
+        `matrix`.
 
         Parameters
         ----------
         v : sympy.Expr or str
             V as an expression in `variable` (and the names in `params`).
         variable : sympy.Symbol or str
+            The variable of V (default ``"y"``).
+        pairs : sequence of (int, int), optional
+            Index pairs (i, j), each the form q_j − q_i: a spring from particle i to particle j.
+        sites : sequence of int, optional
+            Indices i, each the form q_i: an on-site potential.
+        matrix : array of shape (terms, n) or scipy.sparse matrix, optional
+            L itself, one row per term.
         params : dict of str → float, optional
+            Numeric values of the other symbols of `v`.
+
+        Returns
+        -------
+        ChainPotential
+            This chain, with the new terms.
         """
         (var,) = _tape.symbols([variable], "variable")
         params = _tape.parameters(params)
@@ -463,7 +533,21 @@ class PythonPotential(Potential):
     (lanes,) and (lanes, n): in ``ensemble()`` that is one call per bundle of 256 trajectories
     and step instead of one per trajectory. The block is column-major (each coordinate
     contiguous across the trajectories, as the kernel stores it), so operations on its columns
-    ``q[:, i]`` run over all lanes at once; the functions must not modify it.
+    ``q[:, i]`` run over all lanes at once; the functions must not modify it. The block always
+    has the bundle's full 256 rows (padding rows included when an ensemble has fewer
+    trajectories), so the results must have shapes (256,) and (256, n).
+
+    Parameters
+    ----------
+    value : callable
+        q ↦ U(q): an array of shape (n,) to a float, or with `vectorized` (lanes, n) to (lanes,).
+    gradient : callable
+        q ↦ ∇U(q): shape (n,) to (n,), or with `vectorized` (lanes, n) to (lanes, n).
+    dim : int, optional
+        The number of coordinates, if U is only defined for one (checked against the problem).
+    vectorized : bool
+        Whether the callables take a block of trajectories (``ensemble()`` only calls them
+        that way; ``integrate()`` passes a block of one row).
 
     Examples
     --------

@@ -37,9 +37,35 @@ class OscillatoryProblem:
         A, symmetric positive semi-definite, n up to 5000.
     blocks : array of int, shape (n,), optional
         (Diagonal only) block label of each coordinate: 0 for every slow coordinate (and only
-        those), 1 … ℓ for the oscillatory ones, each label used.
+        those), 1 … ℓ for the oscillatory ones, each label used, the coordinates of one label
+        all of one frequency (a frequency may be split over several blocks, each with its own
+        energy I_j; a block of two frequencies is refused).
     slow_tolerance, equal_tolerance : float
         (Stiffness only) the relative tolerances above, default 1e-10 each.
+    path : {"auto", "dense", "krylov"}
+        (Stiffness only) how A is applied. ``"dense"`` diagonalizes A once (n up to 5000) and
+        runs every kernel, ensembles included; ``"krylov"`` never forms an n × n matrix and
+        applies each matrix function of h√A by the Lanczos method, one trajectory at a time
+        (``integrate()`` only, one-step form). ``"auto"``: Krylov for a ``scipy.sparse`` A with
+        n > 5000, dense otherwise.
+    krylov_tolerance : float
+        (Krylov path) a Lanczos iteration for f(h√A)v stops when its a posteriori error
+        estimate β_k |e_kᵀ f(h√T_k) e₁| is below this times |f(h√T_k) e₁|, for every function
+        f taken from the basis; at least 1e-15.
+
+    Attributes
+    ----------
+    omega, blocks : array
+        The frequency and the block label of each coordinate (of each modal coordinate with a
+        stiffness matrix; None on the Krylov path).
+    potential : Potential
+        U.
+    stiffness : array, scipy.sparse matrix or None
+        A, read-only (None for a diagonal Ω).
+    basis : array or None
+        Q with A = QΛQᵀ on the dense path (None otherwise).
+    path : str
+        ``"diagonal"``, ``"dense"`` or ``"krylov"``.
 
     Examples
     --------
@@ -127,7 +153,13 @@ class OscillatoryProblem:
         return self._n
 
     def require_spectrum(self, what: str) -> None:
-        """Raises for a problem on the Krylov path, whose eigenvectors are never formed."""
+        """Raises ValueError for a problem on the Krylov path, whose eigenvectors are never formed.
+
+        Parameters
+        ----------
+        what : str
+            The name of what needs the spectrum, for the message.
+        """
         if self.path == "krylov":
             raise ValueError(f"{what}: not available for a stiffness matrix on the Krylov path (n = {self.dim}), "
                              "whose eigenvalues and eigenvectors are never computed; use trigint.integrate, "
@@ -150,7 +182,7 @@ class OscillatoryProblem:
 
     @property
     def block_frequencies(self) -> np.ndarray:
-        """The frequency of each block 1 … ℓ (the first coordinate's, if a block mixes them)."""
+        """The frequency ω_j of each block j = 1 … ℓ."""
         self.require_spectrum("block_frequencies")
         return np.array([self.omega[np.flatnonzero(self.blocks == j)[0]] for j in range(1, self.n_blocks + 1)])
 
@@ -208,4 +240,12 @@ def _check_blocks(blocks, omega: np.ndarray) -> np.ndarray:
     used = np.unique(b[b > 0])
     if used.size and not np.array_equal(used, np.arange(1, used.size + 1)):
         raise ValueError(f"blocks: oscillatory labels must be 1, 2, ..., l with none skipped, got {used.tolist()}")
+    for j in used:
+        values = np.unique(omega[b == j])
+        if values.size > 1:
+            raise ValueError(
+                f"blocks: block {int(j)} holds the frequencies {values.tolist()}; a block is a group of coordinates "
+                "of one frequency (paper §2.1: its energy I_j and its frequency omega_j enter the theory). Give "
+                "each frequency its own label (one frequency may be split over several blocks)"
+            )
     return b

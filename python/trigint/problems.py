@@ -35,6 +35,17 @@ def fpu(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") -> Oscil
 
     The potential is native in both.
 
+    Parameters
+    ----------
+    m : int
+        The number of stiff springs (2m particles, 2m coordinates).
+    omega : float
+        The stiff frequency ω > 0.
+    coordinates : {"diagonal", "original"}
+        The modal coordinates x, or the particles' positions q.
+
+    Examples
+    --------
     >>> import trigint as ti
     >>> ti.problems.fpu(m=3, omega=50.0).omega.tolist()
     [0.0, 0.0, 0.0, 50.0, 50.0, 50.0]
@@ -50,7 +61,19 @@ def fpu(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") -> Oscil
 
 
 def fpu_stiffness(m: int, omega: float) -> np.ndarray:
-    """A of the FPU chain in the original coordinates q₁ … q₂ₘ: ½qᵀAq = (ω²/4) Σᵢ (q₂ᵢ − q₂ᵢ₋₁)²."""
+    """A of the FPU chain in the original coordinates q₁ … q₂ₘ: ½qᵀAq = (ω²/4) Σᵢ (q₂ᵢ − q₂ᵢ₋₁)².
+
+    Parameters
+    ----------
+    m : int
+        The number of stiff springs (2m particles, 2m coordinates).
+    omega : float
+        The stiff frequency ω > 0.
+
+    Returns
+    -------
+    array of shape (2m, 2m)
+    """
     a = np.zeros((2 * m, 2 * m))
     for i in range(m):
         a[2 * i:2 * i + 2, 2 * i:2 * i + 2] = 0.5 * omega**2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
@@ -63,6 +86,19 @@ def fpu_initial(m: int = 3, omega: float = 50.0, coordinates: str = "diagonal") 
     q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2).
 
     With ω = 50: H = 2.00120008 and H_ω = 1.
+
+    Parameters
+    ----------
+    m : int
+        The number of stiff springs (2m particles, 2m coordinates).
+    omega : float
+        The stiff frequency ω > 0.
+    coordinates : {"diagonal", "original"}
+        The modal coordinates x, or the particles' positions q.
+
+    Returns
+    -------
+    q0, p0 : arrays of shape (2m,)
 
     Examples
     --------
@@ -92,6 +128,11 @@ def _coordinates(value) -> str:
 def experiment1(omega: float = 100.0) -> OscillatoryProblem:
     """Experiment 1: q'' + ω²q = −U'(q) with U(q) = q³ + q⁴, one coordinate of frequency ω.
 
+    Parameters
+    ----------
+    omega : float
+        The frequency ω > 0 (default 100, the paper's).
+
     Examples
     --------
     >>> import trigint as ti
@@ -102,7 +143,16 @@ def experiment1(omega: float = 100.0) -> OscillatoryProblem:
 
 
 def experiment1_initial(omega: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
-    """q(0) = 0.1/ω, q'(0) = 1.
+    """The initial values of Experiment 1: q(0) = 0.1/ω, q'(0) = 1.
+
+    Parameters
+    ----------
+    omega : float
+        The frequency ω > 0 (default 100, the paper's).
+
+    Returns
+    -------
+    q0, p0 : arrays of shape (1,)
 
     Examples
     --------
@@ -116,6 +166,11 @@ def experiment1_initial(omega: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
 def experiment3(omega: float = 200.0) -> OscillatoryProblem:
     """Experiment 3: coordinates (q₀, q₁, q₂) with frequencies (0, ω, √2ω), U = 0.01 q₁q₂.
 
+    Parameters
+    ----------
+    omega : float
+        ω, the smaller frequency, > 0 (default 200, the paper's).
+
     Examples
     --------
     >>> import trigint as ti
@@ -127,7 +182,16 @@ def experiment3(omega: float = 200.0) -> OscillatoryProblem:
 
 
 def experiment3_initial(omega: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
-    """q(0) = (0, 0.3ε, 0.8ε), q'(0) = (0, 0.6, 0.7) with ε = 1/ω.
+    """The initial values of Experiment 3: q(0) = (0, 0.3ε, 0.8ε), q'(0) = (0, 0.6, 0.7), ε = 1/ω.
+
+    Parameters
+    ----------
+    omega : float
+        ω, the smaller frequency, > 0 (default 200, the paper's).
+
+    Returns
+    -------
+    q0, p0 : arrays of shape (3,)
 
     Examples
     --------
@@ -141,6 +205,11 @@ def experiment3_initial(omega: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
 
 def experiment3_step(omega: float = 200.0) -> float:
     """The paper's step size h = 2π/(ω₁ + ω₂), resonant at k = (1, 1), r = 1.
+
+    Parameters
+    ----------
+    omega : float
+        ω = ω₁, the smaller frequency, > 0 (default 200, the paper's).
 
     Examples
     --------

@@ -59,13 +59,37 @@ class SaveAt:
         object.__setattr__(self, "track_energies", bool(self.track_energies))
 
     def samples(self, n_steps: int) -> int:
-        """The most states kept of a run of `n_steps` steps (0 when no states are kept)."""
+        """The most states kept of one run.
+
+        Parameters
+        ----------
+        n_steps : int
+            The run's number of steps.
+
+        Returns
+        -------
+        int
+            States kept at most (0 when no states are kept).
+        """
         return 0 if self.every is None else int(n_steps) // self.every + 2
 
     @classmethod
     def resolve(cls, saveat: SaveAt | None, save_every, track_energies) -> SaveAt:
-        """`saveat` when given (it replaces `save_every` and `track_energies`), else a SaveAt
-        built from the two."""
+        """The SaveAt of an entry point's arguments.
+
+        Parameters
+        ----------
+        saveat : SaveAt or None
+            Taken as it is when given (it replaces the other two).
+        save_every : int or None
+            As ``every``.
+        track_energies : bool
+            As ``track_energies``.
+
+        Returns
+        -------
+        SaveAt
+        """
         if saveat is None:
             return cls(save_every, track_energies)
         if not isinstance(saveat, SaveAt):

@@ -23,10 +23,28 @@ class Solution:
         ``modified_oscillatory`` and ``oscillatory_1`` … ``oscillatory_ℓ``.
     max_deviation : dict
         max |E(t_n) − E(0)| per energy over every step n (streamed, not from the samples).
+    initial_energies : dict
+        E(0) per energy.
+    h : float
+        The step size.
     n_steps : int
         The last step reached (the requested number unless the run stopped early).
+    n_steps_requested : int
+        The number of steps asked for.
     status : str
         ``"completed"``, ``"blow-up"`` or ``"interrupted"``; `message` says more.
+    message : str
+        How the run ended, in words.
+    success : bool
+        True when every requested step was taken (``status == "completed"``).
+    method : Method
+        The method that ran.
+    problem : OscillatoryProblem
+        The problem it ran on.
+    info : dict
+        How the run went beyond the energies: on the Krylov path, the Lanczos ``iterations``
+        (total), ``products`` (matrix functions applied), ``iterations_per_product`` and
+        ``tolerance``; empty otherwise.
 
     Examples
     --------
@@ -51,8 +69,6 @@ class Solution:
     message: str
     method: object = field(repr=False)
     problem: object = field(repr=False)
-    #: how the run went beyond the energies: on the Krylov path, the Lanczos ``iterations``
-    #: (total), ``products`` (matrix functions applied), ``iterations_per_product``, ``tolerance``
     info: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -61,7 +77,14 @@ class Solution:
         return self.status == "completed"
 
     def deviation(self, energy: str = "oscillatory") -> xr.DataArray:
-        """E(t) − E(0) at the samples for one energy."""
+        """E(t) − E(0) at the samples for one energy.
+
+        Parameters
+        ----------
+        energy : str
+            A name of `energies`: ``"oscillatory"``, ``"total"``, ``"slow"``,
+            ``"modified_oscillatory"`` or ``"oscillatory_j"``.
+        """
         if energy not in self.energies:
             raise KeyError(f"energy: unknown name {energy!r}; valid: {list(self.energies.data_vars)}")
         return self.energies[energy] - self.initial_energies[energy]

@@ -23,6 +23,20 @@ __all__ = ["FIGURES", "Claim", "load", "measure", "report", "reproduce", "run", 
 def run_spec(spec: dict, out: Path, *, log=print) -> tuple[list[Claim], float]:
     """Runs one spec; writes DIR/<id>.nc, .png and .pdf; returns the measured claims and the seconds.
 
+    Parameters
+    ----------
+    spec : dict
+        A spec from :func:`load`.
+    out : path
+        The output folder DIR.
+    log : callable
+        Receives the progress and the claims as lines (default ``print``).
+
+    Returns
+    -------
+    claims : list of Claim
+    seconds : float
+
     Examples
     --------
     >>> import tempfile
@@ -69,6 +83,24 @@ def _finish(spec: dict, ds, seconds: float, out: Path, log) -> list[Claim]:
 def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: float | None = None) -> str:
     """The report of measured claims as Markdown (written to `path`).
 
+    Parameters
+    ----------
+    claims : list of Claim
+        The measured claims.
+    timings : dict of str → float
+        Seconds per figure.
+    path : path
+        Where the report is written.
+    quick : bool
+        Whether the runs were the reduced ones.
+    wall : float, optional
+        The wall time of the whole run, when figures ran side by side.
+
+    Returns
+    -------
+    str
+        The Markdown text.
+
     Examples
     --------
     >>> import tempfile
@@ -108,6 +140,23 @@ def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed:
     Two figures are computed at a time: Figure 4's bottom panel is one sequential run on one
     core, and the other figures fill the second core meanwhile. `seed` ≥ 1 runs every figure on
     another realization set of its initial values (see ``runners.seeded``).
+
+    Parameters
+    ----------
+    figures : sequence of str
+        Figure names, ``"fig1"`` … ``"fig5"``.
+    out : path
+        The output folder.
+    quick : bool
+        The reduced runs.
+    seed : int
+        0: the paper's initial values; s ≥ 1: another realization set.
+    log : callable
+        Receives the progress, the claims and the report as lines (default ``print``).
+
+    Returns
+    -------
+    list of Claim
 
     Examples
     --------

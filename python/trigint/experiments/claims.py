@@ -16,6 +16,23 @@ class Claim:
     """One claim of the paper's §4, measured on a figure's data: the number, what the paper
     expects, the tolerance and whether it passes (one row of report.md).
 
+    Attributes
+    ----------
+    figure : str
+        The figure, ``"fig1"`` … ``"fig5"``.
+    claim : str
+        What the paper states, in words.
+    measured : float
+        The number measured on the data.
+    expected : str
+        What the paper's statement makes of it.
+    tolerance : str
+        How close the measurement must come.
+    passed : bool
+        Whether it does.
+    verdict : str
+        ``"PASS"`` or ``"FAIL"``.
+
     Examples
     --------
     >>> from trigint import experiments
@@ -34,11 +51,21 @@ class Claim:
 
     @property
     def verdict(self) -> str:
+        """``"PASS"`` or ``"FAIL"``."""
         return "PASS" if self.passed else "FAIL"
 
 
 def measure(ds: xr.Dataset) -> list[Claim]:
     """The claims of a figure's data set (from :func:`trigint.experiments.run`), measured.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A figure's data, as :func:`trigint.experiments.run` returns it.
+
+    Returns
+    -------
+    list of Claim
 
     Examples
     --------

@@ -19,6 +19,16 @@ from .numbers import number
 def run(spec: dict) -> xr.Dataset:
     """The data of one figure, from its spec.
 
+    Parameters
+    ----------
+    spec : dict
+        A spec from :func:`trigint.experiments.load`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The figure's curves, with the spec's settings as attributes.
+
     Examples
     --------
     >>> from trigint import experiments

@@ -20,6 +20,20 @@ KINDS = ("families", "perturbed", "scan", "methods")
 def load(name_or_path, quick: bool = False) -> dict:
     """The spec of a paper figure ("fig1" … "fig5") or of a TOML file, with `[quick]` applied.
 
+    ``trigint spec fig3 > my.toml`` writes a figure's spec to start one's own from.
+
+    Parameters
+    ----------
+    name_or_path : str or path
+        A figure's name, or the path of a TOML spec.
+    quick : bool
+        Apply the spec's ``[quick]`` table (a reduced run).
+
+    Returns
+    -------
+    dict
+        The validated spec.
+
     Examples
     --------
     >>> from trigint import experiments

@@ -17,6 +17,51 @@ TWO_PI = 2.0 * np.pi
 class ModifiedFrequencies:
     """The construction of Lemmas 5.1 and 5.2 and the checks of its conclusions.
 
+    Returned by :func:`modified_frequencies`.
+
+    Attributes
+    ----------
+    h, N, delta : float, int, float
+        The step size, N and δ of the construction.
+    omega : list of float
+        The distinct frequencies ω_j.
+    alpha, mu : float
+        Lemma 5.1: no |sin(½h k·ω)| with ‖k‖₁ ≤ N+1 lies in [h^(1−α+μ), h^(1−α−μ)].
+    gap : tuple of float
+        That interval, (h^(1−α+μ), h^(1−α−μ)).
+    near_resonant : list of list of int
+        The k with |sin(½h k·ω)| ≤ h^(1−α+μ), one of each ±k (the set (5.4)).
+    module_basis : list of list of int
+        An integer (Hermite) basis of the module 𝓜 they generate.
+    multiples : list of int
+        m_i with |½h k^i·ω − πm_i| minimal, for the basis vectors.
+    vartheta, varpi : list of float
+        The minimal-norm ϑ with k^i·(ω + ϑ) = 2πm_i/h, and ϖ = ω + ϑ.
+    lczero_residual : float
+        (5.1): max |sin(½h k·ϖ)| over k ∈ 𝓜 with ‖k‖₁ ≤ N+1 (0 up to rounding).
+    lcbound_min, lcbound_required : float
+        (5.2): min |sin(½h k·ϖ)| over k ∉ 𝓜 with ‖k‖₁ ≤ N+1, and the bound ½h^(1−α−μ).
+    max_shift : float
+        (5.3): max_j |ϖ_j − ω_j|.
+    gamma : float
+        γ = max_shift · h^(α−μ), the constant of (5.3) for this ϖ.
+    kappa : float
+        κ = min_j |sin(hω_j)|.
+    premise : bool
+        The lemma's premise (3.2), κ ≥ √h.
+    proof_condition : float
+        h^(2μ) γ (N+1): the proof derives (5.2) from the gap when this is ≤ 1.
+    unit_condition : float
+        γ h^(1/2−α+μ): with (3.2), the proof excludes unit vectors and their doubles from 𝓜
+        when this is < 1.
+    checks : dict of str → bool
+        Each conclusion of the lemmas, checked on the computed ϖ and 𝓜.
+    verified : bool
+        Whether every check holds.
+    within_proof : bool
+        Whether (3.2) and both conditions of the proof hold, so that every conclusion is
+        guaranteed.
+
     Examples
     --------
     >>> from trigint.resonance import modified_frequencies
@@ -29,36 +74,37 @@ class ModifiedFrequencies:
     N: int
     delta: float
     omega: list[float]
-    #: Lemma 5.1: no |sin(½h k·ω)|, ‖k‖₁ ≤ N+1, lies in [h^(1−α+μ), h^(1−α−μ)]
     alpha: float
     mu: float
     gap: tuple[float, float]
-    #: the k with |sin(½h k·ω)| ≤ h^(1−α+μ), one of each ±k (the set (5.4))
     near_resonant: list[list[int]]
-    #: integer (Hermite) basis of the module 𝓜 they generate
     module_basis: list[list[int]]
-    #: m_i with |½h k^i·ω − πm_i| minimal, for the basis vectors
     multiples: list[int]
-    #: minimal-norm ϑ with k^i·(ω + ϑ) = 2πm_i/h, and ϖ = ω + ϑ
     vartheta: list[float]
     varpi: list[float]
-    #: (5.1): max |sin(½h k·ϖ)| over k ∈ 𝓜 with ‖k‖₁ ≤ N+1
     lczero_residual: float
-    #: (5.2): min |sin(½h k·ϖ)| over k ∉ 𝓜 with ‖k‖₁ ≤ N+1, and the bound ½h^(1−α−μ)
     lcbound_min: float
     lcbound_required: float
-    #: (5.3): max_j |ϖ_j − ω_j| and γ = that times h^(α−μ)
     max_shift: float
     gamma: float
-    #: the lemma's premise (3.2): κ = min |sin(hω_j)| ≥ √h
     kappa: float
     premise: bool
+    proof_condition: float
+    unit_condition: float
     checks: dict = field(default_factory=dict)
 
     @property
     def verified(self) -> bool:
         """All conclusions of Lemma 5.2 hold for the computed ϖ and 𝓜."""
         return all(self.checks.values())
+
+    @property
+    def within_proof(self) -> bool:
+        """Whether h is small enough for the proof of Lemma 5.2 to guarantee all its conclusions
+        for these ϖ and 𝓜: (3.2) holds, h^(2μ) γ (N+1) ≤ 1 and γ h^(1/2−α+μ) < 1. The lemma
+        holds for h ≤ h₀; beyond, a conclusion may fail (``checks`` says which) without
+        contradicting it."""
+        return self.premise and self.proof_condition <= 1 and self.unit_condition < 1
 
     def __str__(self) -> str:
         lines = [
@@ -72,10 +118,18 @@ class ModifiedFrequencies:
             f"  max |varpi_j - omega_j|  {self.max_shift:.4g} (gamma = {self.gamma:.4g})",
             f"  (5.1) max |sin(h k.varpi/2)| on M       = {self.lczero_residual:.3g}",
             f"  (5.2) min |sin(h k.varpi/2)| off M      = {self.lcbound_min:.4g} "
-            f">= {self.lcbound_required:.4g}",
+            f"{'>=' if self.lcbound_min >= self.lcbound_required else '<'} {self.lcbound_required:.4g}",
         ]
         lines.append(f"  premise (3.2)           kappa = {self.kappa:.4g} {'>=' if self.premise else '<'} sqrt(h)"
                      + ("" if self.premise else ": the lemma does not apply, its conclusions may fail"))
+        ok = self.proof_condition <= 1
+        lines.append(f"  h^(2 mu) gamma (N+1)    = {self.proof_condition:.4g} {'<=' if ok else '>'} 1"
+                     + (": (5.2) follows from the gap" if ok else
+                        ": h is beyond what the proof guarantees for (5.2) (the lemma holds for h <= h0)"))
+        ok = self.unit_condition < 1
+        lines.append(f"  gamma h^(1/2-alpha+mu)  = {self.unit_condition:.4g} {'<' if ok else '>='} 1"
+                     + (": no unit vector or double in M" if ok else
+                        ": h is beyond what the proof guarantees for the unit vectors"))
         lines += [f"  check {k:<31} {'holds' if v else 'FAILS'}" for k, v in self.checks.items()]
         return "\n".join(lines)
 
@@ -87,6 +141,21 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
     μ depends only on N, ℓ, δ: with M the number of values (one per ±k), μ = δ/(4(M+1)), so by
     pigeonhole one of M + 1 equal sub-intervals of the exponents 1 − α ∈ [1 − δ, 1 − δ/2] is free;
     α is the centre of the widest free stretch.
+
+    Parameters
+    ----------
+    h : float
+        Step size, 0 < h < 1.
+    omega : array of float or OscillatoryProblem
+        The frequencies.
+    N : int
+        N ≥ 1 of the lemma: the k with ‖k‖₁ ≤ N + 1 count.
+    delta : float
+        δ in (0, ¼].
+
+    Returns
+    -------
+    alpha, mu : float
 
     Examples
     --------
@@ -126,8 +195,34 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     :func:`gap`); its integer basis k¹ … k^d is the Hermite normal form of those vectors. ϑ is the
     minimal-norm solution of k^i·(ω + ϑ) = 2πm_i/h with m_i the nearest integers to h k^i·ω/(2π).
     The conclusions (5.1), (5.2), (5.3) and that 𝓜 holds no unit vector
-    and no double of one are checked on the result (``.checks``, ``.verified``). The lemma assumes
-    (3.2), κ ≥ √h, and h small enough; ``.premise`` says whether κ ≥ √h.
+    and no double of one are checked on the result (``.checks``, ``.verified``).
+
+    The lemma assumes (3.2), κ ≥ √h (``.premise``), and h ≤ h₀, some h₀ < 1 it does not
+    state. Its proof shows how small h must be: with γ = max_j |ϖ_j − ω_j| h^(α−μ) (the
+    constant of (5.3) for this ϖ), (5.2) follows from the gap when h^(2μ) γ (N+1) ≤ 1
+    (``.proof_condition``), and 𝓜 holds no unit vector and no double of one when
+    γ h^(1/2−α+μ) < 1 (``.unit_condition``). ``.within_proof`` says whether all three hold:
+    then every conclusion is guaranteed. The conditions are sufficient, not necessary, and with
+    μ as small as Lemma 5.1 makes it (about δ/(4M), M the number of values |sin(½h k·ω)|),
+    h^(2μ) is close to 1, so any module with γ(N+1) > 1 is outside them: the h₀ of the lemma
+    can be very small. Beyond, a failed check does not contradict the lemma: at h = 0.01995,
+    ω = (50, 77, 181), N = 3, γ = 1.10 and μ ≈ 10⁻³ give h^(2μ) γ (N+1) = 4.38, and (5.2)
+    misses (0.0213 < 0.0231); at h = 0.001 (5.2) holds with 1.45.
+
+    Parameters
+    ----------
+    h : float
+        Step size, 0 < h < 1.
+    omega : array of float or OscillatoryProblem
+        The frequencies.
+    N : int
+        N ≥ 1 of the lemma.
+    delta : float
+        δ in (0, ¼].
+
+    Returns
+    -------
+    ModifiedFrequencies
 
     Examples
     --------
@@ -162,6 +257,7 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     lczero = float(np.max(s_mod[member])) if member.any() else 0.0
     lcbound = float(np.min(s_mod[~member])) if (~member).any() else np.inf
     shift = float(np.max(np.abs(vartheta)))
+    gamma = shift * h ** (alpha - mu)
     units = [np.eye(w.size, dtype=int)[j] * m for j in range(w.size) for m in (1, 2)]
     checks = {
         "gap (Lemma 5.1)": bool(not np.any((values > upper) & (values < lower))),
@@ -173,8 +269,9 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
         h=h, N=N, delta=delta, omega=w.tolist(), alpha=alpha, mu=mu, gap=(upper, lower),
         near_resonant=[list(map(int, k)) for k in near], module_basis=basis, multiples=multiples,
         vartheta=vartheta.tolist(), varpi=varpi.tolist(), lczero_residual=lczero, lcbound_min=lcbound,
-        lcbound_required=0.5 * lower, max_shift=shift, gamma=shift * h ** (alpha - mu),
-        kappa=kappa, premise=bool(kappa >= np.sqrt(h)), checks=checks,
+        lcbound_required=0.5 * lower, max_shift=shift, gamma=gamma, kappa=kappa,
+        premise=bool(kappa >= np.sqrt(h)), proof_condition=float(h ** (2 * mu) * gamma * (N + 1)),
+        unit_condition=float(gamma * h ** (0.5 - alpha + mu)), checks=checks,
     )
 
 

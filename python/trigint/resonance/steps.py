@@ -18,6 +18,17 @@ TWO_PI = 2.0 * np.pi
 class ResonantStep:
     """hω_ref at which h k·ω = 2πr; `order` is ‖k‖₁.
 
+    Attributes
+    ----------
+    h_omega : float
+        hω_ref.
+    k : tuple of int
+        The integer vector k.
+    r : int
+        The multiple of 2π, ≥ 1.
+    order : int
+        ‖k‖₁.
+
     Examples
     --------
     >>> from trigint.resonance import resonant_step_sizes
@@ -32,6 +43,7 @@ class ResonantStep:
 
     @property
     def order(self) -> int:
+        """‖k‖₁."""
         return sum(map(abs, self.k))
 
     def label(self) -> str:
@@ -43,6 +55,8 @@ class ResonantStep:
 
 #: the most integer vectors k that resonant_step_sizes enumerates (about a second of work)
 MAX_VECTORS = 10**6
+#: the most pairs (k, r) it may have to visit (a few seconds of work)
+MAX_PAIRS = 10**6
 
 
 def _half_ball_size(d: int, order: int) -> int:
@@ -61,6 +75,25 @@ def _largest_order(d: int) -> int:
 
 def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | None = None) -> list[ResonantStep]:
     """Every hω_ref in `h_omega_range` with h k·ω = 2πr for some k, ‖k‖₁ ≤ order, r ≥ 1.
+
+    The work grows with the number of vectors k (at most 10⁶) times the number of r per k
+    (about the range's width times order/2π); requests of more than 10⁶ pairs (k, r), a few
+    seconds of work, are refused with ValueError before anything is enumerated.
+
+    Parameters
+    ----------
+    omega : array of float
+        The frequencies.
+    h_omega_range : (float, float)
+        The interval of hω_ref to search, 0 ≤ low < high.
+    order : int
+        The largest ‖k‖₁.
+    omega_ref : float, optional
+        The frequency that measures h (default: the largest).
+
+    Returns
+    -------
+    list of ResonantStep
 
     h is measured through hω_ref (default: the largest frequency, as in `scan()`), as on the axes of
     the paper's Figure 3; for one frequency these are the hω = 2πr/k. Each step size is listed
@@ -88,6 +121,20 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
     ref = float(np.max(w)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:
         raise ValueError(f"omega_ref: must be > 0, got {ref}")
+    # Each k has |k·ω| ≤ order·max ω, hence at most (hi − lo)·order·max ω/(2π ω_ref) + 1 values of r.
+    def pairs(n: int) -> float:
+        return _half_ball_size(w.size, n) * ((hi - lo) * n * float(np.max(w)) / (TWO_PI * ref) + 1)
+
+    if pairs(int(order)) > MAX_PAIRS:
+        low, high = 0, int(order)  # pairs(low) fits, pairs(high) does not
+        while high - low > 1:
+            mid = (low + high) // 2
+            low, high = (mid, high) if pairs(mid) <= MAX_PAIRS else (low, mid)
+        raise ValueError(
+            f"order: {order} over h*omega_ref in [{lo:g}, {hi:g}] means up to {pairs(int(order)):.3g} pairs (k, r) "
+            f"to visit; at most {MAX_PAIRS:.0e} are (a few seconds of work). Choose order <= {max(low, 1)} or a "
+            "narrower h_omega_range"
+        )
     found: dict[float, ResonantStep] = {}
     for k in half_ball(w.size, int(order)):
         dot = float(k @ w)

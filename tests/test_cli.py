@@ -1,0 +1,121 @@
+"""The command line as a user meets it: help with defaults, a spec to start from, warnings at a
+numerical resonance, pipes that close early, and logs that are not a terminal."""
+
+from __future__ import annotations
+
+import io
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+
+import trigint as ti
+from trigint import _progress, experiments
+from trigint.cli import build_parser
+
+
+def run_cli(*args, **kwargs):
+    return subprocess.run([sys.executable, "-m", "trigint.cli", *args], capture_output=True, text=True,
+                          timeout=300, **kwargs)
+
+
+def test_every_command_has_a_description_and_shows_its_defaults():
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    for name, p in sub.choices.items():
+        assert p.description, f"trigint {name} has no description"
+        text = " ".join(p.format_help().split())
+        for action in p._actions:
+            if action.default not in (None, "==SUPPRESS==") and action.option_strings:
+                assert f"(default: {action.default})" in text, (name, action.dest)
+    assert "(default: 3)" in run_cli("fpu", "--help").stdout
+
+
+def test_a_closed_pipe_ends_the_output_quietly():
+    """`trigint resonance ... --json | head`: the reader leaves before the JSON is written."""
+    proc = subprocess.Popen([sys.executable, "-m", "trigint.cli", "resonance", "--h", "0.0418879", "--omega", "50",
+                             "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # long before the child has imported trigint
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == 141  # 128 + SIGPIPE, as the shell reports a writer cut off
+    assert err == ""
+
+
+def test_fpu_at_a_numerical_resonance_warns(tmp_path):
+    near = run_cli("fpu", "--h-omega", "3.14159265", "--t-end", "30", "--out", str(tmp_path))
+    assert near.returncode == 0, near.stderr
+    assert "trigint: warning: numerical resonance: h*omega[3] = 3.14159265 is 3.59e-09 from 1*pi" in near.stderr
+    assert "(3.2)" in near.stderr and "Traceback" not in near.stderr
+    usual = run_cli("fpu", "--t-end", "30", "--out", str(tmp_path))  # hω = 2π/3
+    assert usual.returncode == 0 and "warning" not in usual.stderr
+
+
+def test_spec_prints_a_figure_spec_that_run_accepts(tmp_path):
+    printed = run_cli("spec", "fig5")
+    assert printed.returncode == 0
+    spec = tomllib.loads(printed.stdout)
+    assert spec["figure"]["id"] == "fig5"
+    mine = tmp_path / "my.toml"
+    mine.write_text(printed.stdout.replace('id = "fig5"', 'id = "mine"'))
+    out = run_cli("run", str(mine), "--quick", "--out", str(tmp_path / "out"))
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "out" / "mine.png").exists() and (tmp_path / "out" / "mine.nc").exists()
+    assert experiments.load(str(mine))["figure"]["id"] == "mine"
+    bad = run_cli("spec", "fig9")
+    assert bad.returncode == 2 and "valid: fig1, fig2, fig3, fig4, fig5" in bad.stderr
+
+
+def test_progress_in_a_log_is_lines_without_carriage_returns():
+    log = io.StringIO()
+    bar = _progress.LineProgress(1000, "step", "integrate", stream=log)
+    for _ in range(100):
+        bar.update(10)
+    bar.close()
+    lines = log.getvalue().splitlines()
+    assert "\r" not in log.getvalue()
+    assert lines[0] == "integrate: 10% (100 of 1,000 steps)" and lines[-1] == "integrate: 100% (1,000 of 1,000 steps)"
+    assert len(lines) == 10
+    assert not _progress.interactive(io.StringIO())
+
+
+LOG_SCRIPT = """
+import numpy as np, trigint as ti
+prob = ti.OscillatoryProblem([50.0], ti.PythonPotential(lambda q: 0.0, lambda q: np.zeros(1)))
+ti.integrate(prob, "B", [0.1], [0.0], h=0.01, n_steps=200_000)                  # default: no bar in a log
+ti.integrate(prob, "B", [0.1], [0.0], h=0.01, n_steps=200_000, progress=True)   # asked for: lines
+"""
+
+
+def test_integrate_writes_no_bar_into_a_log_by_default():
+    out = subprocess.run([sys.executable, "-c", LOG_SCRIPT], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "\r" not in out.stderr
+    lines = out.stderr.splitlines()
+    assert lines and all(line.startswith("integrate: ") for line in lines), out.stderr
+    assert lines[-1] == "integrate: 100% (200,000 of 200,000 steps)"
+    assert sum("100%" in line for line in lines) == 1  # only the run that asked for it reports
+
+
+def test_ensemble_in_a_log_has_no_bar():
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    err = io.StringIO()
+    import contextlib
+
+    with contextlib.redirect_stderr(err):
+        ds = ti.ensemble(prob, "B", q0, p0, h=0.04 * np.array([1.0, 1.01]), n_steps=1000, chunk_size=1,
+                         progress=True)
+    assert ds.status.values.tolist() == ["completed", "completed"]
+    assert err.getvalue().splitlines()[-1] == "ensemble: 100% (2 of 2 chunks)" and "\r" not in err.getvalue()
+
+
+def test_the_theory_page_shows_what_trigint_resonance_prints():
+    import shlex
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "theory.md").read_text(encoding="utf-8")
+    block = page.split("```text\n", 1)[1].split("```", 1)[0]
+    command, *shown = block.splitlines()
+    out = run_cli(*shlex.split(command.removeprefix("$ "))[1:])
+    assert out.returncode == 0 and out.stdout.splitlines() == shown
