@@ -199,7 +199,9 @@ class ExpressionPotential(Potential):
     expr : sympy.Expr or str
         U in the symbols `coordinates` (and the names in `params`). Supported: + − × ÷,
         integer and rational powers, sqrt, exp, log, sin, cos, tan, sinh, cosh, tanh, Abs and
-        numbers.
+        numbers. A string is read as data, never run as Python: only numbers, the declared
+        names, pi, E, these functions, ``+ - * / ** ^`` and parentheses are accepted (sums of
+        any length), anything else is refused naming the token.
     coordinates : sequence of sympy.Symbol or str
         The coordinates q₁ … qₙ, in the problem's order.
     params : dict of str → float, optional
