@@ -85,6 +85,8 @@ def parameters(params: Mapping | None) -> dict[str, float]:
             raise ValueError(f"params: {name} = {v!r} is complex; parameters must be real numbers")
         try:
             x = float(v)
+        except OverflowError:
+            raise ValueError(f"params: {name} is too large for a double (at most about 1.8e308 in magnitude)") from None
         except (TypeError, ValueError):
             raise TypeError(f"params: {name} = {v!r} is not a number") from None
         if not math.isfinite(x):

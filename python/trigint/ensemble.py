@@ -88,16 +88,14 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     problem.require_spectrum("ensemble")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
-    if save_every is not None and (isinstance(save_every, bool) or not isinstance(save_every, int | np.integer)
-                                   or save_every < 1):
-        raise ValueError(f"save_every: must be an integer >= 1 or None, got {save_every!r}")
+    if save_every is not None:
+        _at_least_one(save_every, "save_every", " or None")
     if save_every is not None:
         check_steps(int(save_every), "save_every")
     if not isinstance(track_energies, bool | np.bool_):
         raise TypeError(f"track_energies: expected True or False, got {track_energies!r}")
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int | np.integer)
-                                or threads < 1):
-        raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
+    if threads is not None:
+        _at_least_one(threads, "threads", " or None")
     if threads is not None and threads > MAX_THREADS:
         raise ValueError(f"threads: at most {MAX_THREADS}, got {threads}")
     count = len(batch)
@@ -225,10 +223,18 @@ def _check_memory(problem, batch, save_every) -> None:
         )
 
 
+def _at_least_one(value, name: str, alternative: str = "") -> None:
+    """An integer >= 1: a float, string or bool is an IntegerTypeError (a TypeError, and a
+    ValueError as before), an integer below 1 a ValueError."""
+    if not _check.is_integer(value):
+        raise _check.IntegerTypeError(f"{name}: must be an integer >= 1{alternative}, got {value!r}")
+    if value < 1:
+        raise ValueError(f"{name}: must be an integer >= 1{alternative}, got {value!r}")
+
+
 def _chunk_size(chunk_size, count: int, client, threads) -> int:
     if chunk_size is not None:
-        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer) or chunk_size < 1:
-            raise ValueError(f"chunk_size: must be an integer >= 1, got {chunk_size!r}")
+        _at_least_one(chunk_size, "chunk_size")
         return int(chunk_size)
     if client is not None:
         return max(1, -(-count // 16))

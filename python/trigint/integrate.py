@@ -10,7 +10,7 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from . import _native
+from . import _check, _native
 from .energies import energy_names
 from .methods import Method, _check_h, resolve_method
 from .potentials import PythonPotential
@@ -202,7 +202,8 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
 def check_steps(n: int, name: str) -> int:
     """n, if it is a run length this library can count (at most 2**53 steps)."""
     if n > MAX_STEPS:
-        raise ValueError(f"{name}: {n:.3g} steps is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
+        count = f"{n:.3g} steps" if n < 10**300 else f"{_check.shown(n)} (steps)"
+        raise ValueError(f"{name}: {count} is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
                          "(at 7 ns per step that would take two years)")
     return n
 
@@ -210,8 +211,11 @@ def check_steps(n: int, name: str) -> int:
 def _number(value, name: str) -> float:
     """A real number (not a string, a bool or a complex)."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name}: expected a number, got {value!r} ({type(value).__name__})")
-    return float(value)
+        raise TypeError(f"{name}: expected a number, got {_check.shown(value)} ({type(value).__name__})")
+    try:
+        return float(value)
+    except OverflowError:
+        raise _check.too_large(name, value) from None
 
 
 def _flag(value, name: str) -> bool:
@@ -221,8 +225,9 @@ def _flag(value, name: str) -> bool:
 
 
 def _positive_int(value, name: str, allow_zero: bool = False) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name}: expected an integer, got {value!r} ({type(value).__name__})")
+    if not _check.is_integer(value):
+        raise _check.IntegerTypeError(f"{name}: expected an integer, got {_check.shown(value)} "
+                                      f"({type(value).__name__})")
     if value < (0 if allow_zero else 1):
         raise ValueError(f"{name}: must be {'>= 0' if allow_zero else '>= 1'}, got {value}")
     return int(value)
@@ -233,6 +238,8 @@ def _state(x, name: str, n: int) -> np.ndarray:
         raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
         a = np.ascontiguousarray(x, dtype=float)
+    except OverflowError:
+        raise ValueError(f"{name}: a value is too large for a double (at most about 1.8e308 in magnitude)") from None
     except (TypeError, ValueError):
         raise TypeError(f"{name}: expected an array of {n} floats") from None
     if a.shape != (n,):

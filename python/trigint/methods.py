@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _check
 from ._filters import FILTERS, evaluate, lookup, one, sinc
 
 #: |χ(hω̃)| below this counts as zero: p_n = (q_{n+1} − q_{n−1})/(2hχ) would lose every digit.
@@ -480,7 +481,10 @@ class IMEX(AlphaMethod):
 def _check_h(h) -> float:
     if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
         raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
-    h = float(h)
+    try:
+        h = float(h)
+    except OverflowError:
+        raise _check.too_large("h", h) from None
     if not np.isfinite(h) or h <= 0:
         raise ValueError(f"h: the step size must be finite and > 0, got {h}")
     return h
