@@ -15,6 +15,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 from . import problems, resonance
 from ._filters import sinc
 from ._stiffness import Frequencies
+from ._store import StoreError
 from .energies import energies
 from .ensemble import ensemble, perturb, scan
 from .integrate import integrate
@@ -55,6 +56,7 @@ __all__ = [
     "Potential",
     "PythonPotential",
     "Solution",
+    "StoreError",
     "StormerVerlet",
     "Trigonometric",
     "energies",

@@ -61,7 +61,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         same store skips the finished chunks and returns the identical result, whatever its thread
         count, chunk size or client (the store keeps the chunking it was made with). A process
         killed at any moment, even while creating the store, loses at most the unfinished chunks.
-        A store written by a different call is refused.
+        A store written by a different call is refused. A finished chunk that no longer reads back
+        (each carries a checksum) is recomputed with a warning; a store that cannot be used
+        (damaged metadata, a missing array, a folder that cannot be written, a file or dangling
+        link in the way) raises :class:`trigint.StoreError` before anything is computed.
     progress : bool, optional
         A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more).
 
@@ -112,9 +115,12 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
     results: dict[int, dict] = {}
     todo = list(range(len(spans)))
+    stored: dict[int, dict] = {}
     if sink is not None:
-        done = sink.done()
-        todo = [i for i in todo if not done[i]]
+        stored = sink.finished(spans)  # damaged finished chunks are left out: recomputed
+        todo = [i for i in todo if i not in stored]
+        if todo:
+            sink.prepare(len(todo))  # writable, before anything is computed
     if progress is not None and not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress: expected True, False or None, got {type(progress).__name__}")
     show = progress if progress is not None else int(batch.n_steps.sum()) >= PROGRESS_FROM
@@ -133,7 +139,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         interrupted = True
     finally:
         bar.close()
-    ds = _assemble(problem, method, batch, names, spans, results, sink, save_every)
+    ds = _assemble(problem, method, batch, names, spans, results, stored, save_every)
     if interrupted:
         finished = int((ds.status == "completed").sum())
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
@@ -325,7 +331,7 @@ def _potential_key(potential) -> str:
     return repr(spec)
 
 
-def _assemble(problem, method, batch, names, spans, results, sink, save_every) -> xr.Dataset:
+def _assemble(problem, method, batch, names, spans, results, stored, save_every) -> xr.Dataset:
     count, n, c = len(batch), problem.dim, len(names)
     arrays = {
         "max_deviation": np.full((count, c), np.nan), "initial_energies": np.full((count, c), np.nan),
@@ -336,13 +342,9 @@ def _assemble(problem, method, batch, names, spans, results, sink, save_every) -
         width = _max_samples(batch, save_every)
         arrays.update({"step": np.full((count, width), -1, dtype=np.int64), "q": np.full((count, width, n), np.nan),
                        "p": np.full((count, width, n), np.nan), "energies": np.full((count, width, c), np.nan)})
-    if sink is not None:
-        stored = sink.read(arrays)
-        done = sink.done()
-        for i, span in enumerate(spans):
-            if done[i]:
-                for name in arrays:
-                    arrays[name][span] = stored[name][span]
+    for i, rows in stored.items():  # finished chunks read back from the store
+        for name in arrays:
+            arrays[name][spans[i]] = rows[name]
     for i, out in results.items():
         for name, value in _chunk_arrays(out, spans[i], names, save_every, batch).items():
             arrays[name][spans[i]] = value
