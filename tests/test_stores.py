@@ -300,3 +300,9 @@ def test_a_write_that_fails_midway_keeps_the_finished_chunks(tmp_path, reference
     client = Counting()
     assert sweep(store, client).identical(reference)
     assert client.calls == 2
+
+
+@pytest.mark.parametrize("store", [123, ["a.zarr"], b"x.zarr"])
+def test_a_store_that_is_not_a_path(store):
+    with pytest.raises(TypeError, match=r"^store: expected a folder path \(a str or pathlib.Path\), got "):
+        sweep(store)

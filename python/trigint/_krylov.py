@@ -108,10 +108,14 @@ class KrylovStepper:
         return out
 
     def force(self, q: np.ndarray) -> dict:
-        """g(φq) and the three products of it the next steps need."""
+        """g(φq) and the three products of it the next steps need (and, with φ = 1, U(q) under
+        "value", computed with the force)."""
         x = q if self.phi_is_identity else self.apply(q, ("phi",))["phi"]
-        g = self.potential.force(x)
-        return self.apply(g, ("psi", "psi_over_chi", "c_psi_over_chi"))
+        value, g = self.potential.evaluate(x)
+        out = self.apply(g, ("psi", "psi_over_chi", "c_psi_over_chi"))
+        if self.phi_is_identity:
+            out["value"] = value
+        return out
 
     def step(self, q: np.ndarray, p: np.ndarray, g: dict) -> tuple[np.ndarray, np.ndarray, dict]:
         h = self.h
@@ -134,6 +138,11 @@ class CompiledPotential:
 
     def force(self, q: np.ndarray) -> np.ndarray:
         return self.evaluator.evaluate(q[None, :])[1][0]
+
+    def evaluate(self, q: np.ndarray) -> tuple[float, np.ndarray]:
+        """(U(q), −∇U(q)) from one evaluation."""
+        values, forces = self.evaluator.evaluate(q[None, :])
+        return float(values[0]), forces[0]
 
     def value(self, q: np.ndarray) -> float:
         return float(self.evaluator.evaluate(q[None, :])[0][0])
@@ -195,7 +204,7 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
         g = stepper.force(q)
         while n < n_steps:
             q_next, p_next, g_next = stepper.step(q, p, g)
-            u_next = potential.value(q_next)
+            u_next = g_next["value"] if "value" in g_next else potential.value(q_next)
             if not _finite(q_next, p_next, u_next):
                 status = "blow-up"
                 message = (f"the solution blew up: the state is not finite at step {n + 1} (t = {(n + 1) * h:g}); "

@@ -105,6 +105,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     _check_memory(problem, batch, save_every)
     chunk = _chunk_size(chunk_size, count, client, threads)
     if store is not None:  # a store keeps the chunking it was made with (results do not depend on it)
+        if not isinstance(store, str | os.PathLike):
+            raise TypeError(f"store: expected a folder path (a str or pathlib.Path), got {type(store).__name__}")
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
