@@ -107,7 +107,9 @@ def check_class(cls, where: str) -> None:
         assert not missing, f"{where}: fields without a description: {missing}"
     else:
         init = cls.__init__
-        expected = [] if init is object.__init__ else signature_names(init)
+        # exceptions and plain classes that take the constructor of a built-in type
+        inherited = not any("__init__" in vars(c) for c in cls.__mro__ if c.__module__ != "builtins")
+        expected = [] if init is object.__init__ or inherited else signature_names(init)
         assert sorted(parameters) == sorted(expected), (
             f"{where}: Parameters document {parameters}, the constructor has {expected}")
     for name, method in public_methods(cls):

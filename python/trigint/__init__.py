@@ -15,6 +15,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 from . import problems, resonance
 from ._filters import sinc
 from ._stiffness import Frequencies
+from ._store import StoreError
 from .energies import energies
 from .ensemble import ensemble, perturb, scan
 from .integrate import integrate
@@ -57,6 +58,7 @@ __all__ = [
     "PythonPotential",
     "SaveAt",
     "Solution",
+    "StoreError",
     "StormerVerlet",
     "Trigonometric",
     "energies",

@@ -46,6 +46,8 @@ def _batched(x, name: str, n: int) -> np.ndarray:
         raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
         a = np.asarray(x, dtype=float)
+    except OverflowError:
+        raise ValueError(f"{name}: a value is too large for a double (at most about 1.8e308 in magnitude)") from None
     except (TypeError, ValueError):
         raise TypeError(f"{name}: expected an array of shape (n,) or (B, n) with n = {n}") from None
     if a.ndim == 1:
@@ -70,7 +72,9 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         raise TypeError(f"h: expected a positive number or an array of them, got {h!r}")
     try:
         h_arr = np.asarray(h, dtype=float).reshape(-1) if np.ndim(h) else np.asarray([h], dtype=float)
-    except (TypeError, ValueError, OverflowError):
+    except OverflowError:
+        raise ValueError("h: a step size is too large for a double (at most about 1.8e308 in magnitude)") from None
+    except (TypeError, ValueError):
         raise TypeError(f"h: expected a positive number or an array of them, got {h!r}") from None
     if np.ndim(h) > 1:
         raise ValueError(f"h: expected a scalar or shape (B,), got shape {np.shape(h)}")
@@ -89,7 +93,9 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
     if (t_end is None) == (n_steps is None):
         raise ValueError("t_end, n_steps: give exactly one of them")
     if n_steps is not None:
-        if isinstance(n_steps, bool) or not isinstance(n_steps, int | np.integer) or n_steps < 1:
+        if not _check.is_integer(n_steps):
+            raise _check.IntegerTypeError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
+        if n_steps < 1:
             raise ValueError(f"n_steps: must be an integer >= 1, got {n_steps!r}")
         steps = np.full(count, check_steps(int(n_steps), "n_steps"), dtype=np.int64)
     else:

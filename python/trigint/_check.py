@@ -8,14 +8,58 @@ from collections.abc import Sequence
 import numpy as np
 
 
+class IntegerTypeError(TypeError, ValueError):
+    """A float, string, boolean or other non-integer given where an integer is expected.
+
+    A TypeError; also a ValueError, which some of these arguments raised before.
+
+    >>> issubclass(IntegerTypeError, TypeError) and issubclass(IntegerTypeError, ValueError)
+    True
+    """
+
+
+def shown(value) -> str:
+    """`value` for an error message: its repr, shortened; an integer too long to print by its length.
+
+    >>> shown(10**400)
+    'an integer of 401 digits'
+    >>> shown(2.5)
+    '2.5'
+    """
+    if isinstance(value, int | np.integer) and not isinstance(value, bool) and abs(int(value)) >= 10**30:
+        return f"an integer of {_digits(int(value))} digits"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _digits(n: int) -> int:
+    n = abs(n)
+    bits = n.bit_length()
+    if bits < 10000:
+        return len(str(n))
+    return int(bits * 0.30102999566398120)  # too long to convert to text; close enough for a message
+
+
+def too_large(name: str, value) -> ValueError:
+    """The error for a number that does not fit a double."""
+    return ValueError(f"{name}: {shown(value)} is too large for a double (at most about 1.8e308 in magnitude)")
+
+
 def real(value, name: str, *, positive: bool = False, nonneg: bool = False, finite: bool = True) -> float:
-    """A real number: int or float (NumPy scalars included), not bool, str or complex."""
+    """A real number: int or float (NumPy scalars included), not bool, str or complex.
+
+    >>> real(3, "h")
+    3.0
+    >>> real(10**400, "h")
+    Traceback (most recent call last):
+    ValueError: h: an integer of 401 digits is too large for a double (at most about 1.8e308 in magnitude)
+    """
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name}: expected a real number, got {value!r} ({type(value).__name__})")
+        raise TypeError(f"{name}: expected a real number, got {shown(value)} ({type(value).__name__})")
     try:
         x = float(value)
     except OverflowError:
-        raise ValueError(f"{name}: {value} is too large for a double") from None
+        raise too_large(name, value) from None
     if finite and not np.isfinite(x):
         raise ValueError(f"{name}: must be finite, got {x}")
     if positive and not x > 0:
@@ -25,33 +69,114 @@ def real(value, name: str, *, positive: bool = False, nonneg: bool = False, fini
     return x
 
 
+def is_integer(value) -> bool:
+    """An integer (Python or NumPy), not a bool, float or string."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
 def number(value, name: str) -> float:
     """A real number, finite or not (not a string, a bool or a complex)."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name}: expected a number, got {value!r} ({type(value).__name__})")
-    return float(value)
+        raise TypeError(f"{name}: expected a number, got {shown(value)} ({type(value).__name__})")
+    try:
+        return float(value)
+    except OverflowError:
+        raise too_large(name, value) from None
 
 
 def step_size(h) -> float:
     """The step size h: a finite float > 0."""
     if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
         raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
-    h = float(h)
+    try:
+        h = float(h)
+    except OverflowError:
+        raise too_large("h", h) from None
     if not np.isfinite(h) or h <= 0:
         raise ValueError(f"h: the step size must be finite and > 0, got {h}")
     return h
 
 
 def integer(value, name: str, *, low: int | None = None, high: int | None = None) -> int:
-    """An integer (Python or NumPy, not bool) within [low, high]."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name}: expected an integer, got {value!r} ({type(value).__name__})")
+    """An integer (Python or NumPy, not bool) within [low, high].
+
+    >>> integer(np.int32(4), "m", low=1)
+    4
+    >>> integer(4.0, "m")
+    Traceback (most recent call last):
+    trigint._check.IntegerTypeError: m: expected an integer, got 4.0 (float)
+    """
+    if not is_integer(value):
+        raise IntegerTypeError(f"{name}: expected an integer, got {shown(value)} ({type(value).__name__})")
     n = int(value)
     if (low is not None and n < low) or (high is not None and n > high):
         bounds = (f"from {low} to {high}" if low is not None and high is not None
                   else f">= {low}" if low is not None else f"<= {high}")
-        raise ValueError(f"{name}: must be an integer {bounds}, got {n}")
+        raise ValueError(f"{name}: must be an integer {bounds}, got {shown(n)}")
     return n
+
+
+def indices(value, name: str, n: int, *, width: int | None = None) -> np.ndarray:
+    """Coordinate indices in 0 … n−1 as an int64 array: a sequence (or integer array) of
+    integers, or with `width` a sequence of tuples of that many. Floats, strings and booleans
+    are refused, never truncated or split into characters.
+
+    >>> indices(range(3), "sites", 4).tolist()
+    [0, 1, 2]
+    >>> indices([(0, 1), (1, 2)], "pairs", 3, width=2).tolist()
+    [[0, 1], [1, 2]]
+    >>> try:
+    ...     indices([(0.7, 1.2)], "pairs", 3, width=2)
+    ... except TypeError as exc:
+    ...     print(exc)
+    pairs: 0.7 (float) is not an integer; indices must be integers (not floats, strings or booleans)
+    """
+    what = "a sequence of integer index pairs (i, j)" if width == 2 else "a sequence of integer coordinate indices"
+    if isinstance(value, str | bytes) or not _iterable(value):
+        raise IntegerTypeError(f"{name}: expected {what}, got {shown(value)} ({type(value).__name__})")
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "iu":
+            raise IntegerTypeError(f"{name}: expected {what}, got an array of {value.dtype}")
+        a = value.astype(np.int64)
+    elif isinstance(value, range):
+        a = np.asarray(value, dtype=np.int64)
+    else:
+        rows = list(value)
+        flat = rows
+        if width is not None:
+            for row in rows:
+                if isinstance(row, str | bytes) or not _iterable(row):
+                    raise IntegerTypeError(f"{name}: expected {what}, got the entry {shown(row)}")
+            rows = [list(row) for row in rows]
+            flat = [x for row in rows for x in row]
+        for x in flat:
+            if not is_integer(x):
+                raise IntegerTypeError(f"{name}: {shown(x)} ({type(x).__name__}) is not an integer; indices must "
+                                       "be integers (not floats, strings or booleans)")
+        try:
+            a = np.asarray(rows, dtype=np.int64)
+        except OverflowError:
+            raise ValueError(f"{name}: an index is outside 0 … {n - 1}") from None
+        except ValueError:
+            raise ValueError(f"{name}: expected {what}; the entries have different lengths") from None
+    if width is not None and (a.ndim != 2 or a.shape[1] != width):
+        raise ValueError(f"{name}: expected shape (terms, {width}), got {a.shape}")
+    if width is None:
+        a = a.reshape(-1)
+    if a.size == 0:
+        raise ValueError(f"{name}: empty")
+    bad = (a < 0) | (a >= n)
+    if bad.any():
+        raise ValueError(f"{name}: index {a[bad][0]} is outside 0 … {n - 1}")
+    return a
+
+
+def _iterable(value) -> bool:
+    try:
+        iter(value)
+    except TypeError:
+        return False
+    return True
 
 
 def real_array(value, name: str, *, ndim: int | None = 1, finite: bool = True, positive: bool = False,
@@ -63,7 +188,10 @@ def real_array(value, name: str, *, ndim: int | None = 1, finite: bool = True, p
         raise TypeError(f"{name}: complex values are not allowed")
     try:
         a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
+    except OverflowError:
+        raise ValueError(f"{name}: a value is too large for a double (at most about 1.8e308 in magnitude), got "
+                         f"{_short(value)}") from None
+    except (TypeError, ValueError):
         raise TypeError(f"{name}: expected an array of real numbers, got {_short(value)}") from None
     if ndim is not None and a.ndim > ndim:
         raise ValueError(f"{name}: expected at most {ndim} dimension(s), got shape {a.shape}")
@@ -90,5 +218,8 @@ def choice(value, name: str, choices: Sequence[str]) -> str:
 
 
 def _short(value) -> str:
-    text = repr(value)
+    try:
+        text = repr(value)
+    except ValueError:  # an integer with more digits than Python prints
+        return f"a {type(value).__name__} holding a huge integer"
     return text if len(text) <= 80 else text[:77] + "..."

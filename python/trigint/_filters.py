@@ -23,7 +23,10 @@ def sinc(x) -> np.ndarray:
     >>> round(float(sinc(np.pi / 2)), 12), float(sinc(0.0))
     (0.636619772368, 1.0)
     """
-    x = np.asarray(x, dtype=float)
+    try:
+        x = np.asarray(x, dtype=float)
+    except OverflowError:
+        raise ValueError("x: a value is too large for a double (at most about 1.8e308 in magnitude)") from None
     out = np.ones_like(x)
     nz = x != 0
     out[nz] = np.sin(x[nz]) / x[nz]

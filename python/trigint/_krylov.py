@@ -110,10 +110,14 @@ class KrylovStepper:
         return out
 
     def force(self, q: np.ndarray) -> dict:
-        """g(φq) and the three products of it the next steps need."""
+        """g(φq) and the three products of it the next steps need (and, with φ = 1, U(q) under
+        "value", computed with the force)."""
         x = q if self.phi_is_identity else self.apply(q, ("phi",))["phi"]
-        g = self.potential.force(x)
-        return self.apply(g, ("psi", "psi_over_chi", "c_psi_over_chi"))
+        value, g = self.potential.evaluate(x)
+        out = self.apply(g, ("psi", "psi_over_chi", "c_psi_over_chi"))
+        if self.phi_is_identity:
+            out["value"] = value
+        return out
 
     def step(self, q: np.ndarray, p: np.ndarray, g: dict) -> tuple[np.ndarray, np.ndarray, dict]:
         h = self.h
@@ -135,16 +139,48 @@ class CompiledPotential:
     def force(self, q: np.ndarray) -> np.ndarray:
         return self.evaluator.evaluate(q[None, :])[1][0]
 
+    def evaluate(self, q: np.ndarray) -> tuple[float, np.ndarray]:
+        """(U(q), −∇U(q)) from one evaluation."""
+        values, forces = self.evaluator.evaluate(q[None, :])
+        return float(values[0]), forces[0]
+
     def value(self, q: np.ndarray) -> float:
         return float(self.evaluator.evaluate(q[None, :])[0][0])
 
 
-def energies(a, potential, q: np.ndarray, p: np.ndarray) -> np.ndarray:
+def energies(a, potential, q: np.ndarray, p: np.ndarray, u: float | None = None) -> np.ndarray:
     """(total, oscillatory, slow) at one state: ½|p|² + ½qᵀAq is H_ω when A has no zero
-    eigenvalue (the slow part ½|P₀p|² is not separated on this path), and H_slow = U(q)."""
+    eigenvalue (the slow part ½|P₀p|² is not separated on this path), and H_slow = U(q)
+    (`u` when it is known)."""
     quadratic = 0.5 * (p @ p + q @ (a @ q))
-    u = float(potential.value(q))
+    u = float(potential.value(q)) if u is None else u
     return np.array([quadratic + u, quadratic, u])
+
+
+def _finite(q: np.ndarray, p: np.ndarray, u: float) -> bool:
+    """The core's test of a state: q, p and U(q) finite (a non-finite force g(φq) makes the
+    next momentum, hence the state, non-finite)."""
+    return bool(np.all(np.isfinite(q)) and np.all(np.isfinite(p)) and np.isfinite(u))
+
+
+def _rust_float(x: float) -> str:
+    """x as the core prints it in its messages (NaN, inf, -inf)."""
+    return "NaN" if np.isnan(x) else ("inf" if x > 0 else "-inf") if np.isinf(x) else repr(x)
+
+
+def _nothing_integrated(q: np.ndarray, e0: np.ndarray, stepper, tol: float):
+    """U(q0) is not finite: like the core, status "blow-up" at step 0 with no samples."""
+    n = q.size
+    samples = {"q": np.empty((0, n)), "p": np.empty((0, n)), "energies": np.empty((0, 5)), "steps": np.empty(0)}
+    message = f"the potential is not finite at the initial state (U(q0) = {_rust_float(e0[2])}); nothing was integrated"
+    return _native.run_result(["blow-up"], [message], [0], np.r_[e0, np.nan, e0[1]][None, :],
+                              np.full((1, 5), np.nan), [samples], info=_info(stepper, tol))
+
+
+def _info(stepper, tol: float) -> dict:
+    """The Krylov path's counts for ``Solution.info``."""
+    return {"iterations": stepper.iterations, "products": stepper.products, "tolerance": tol,
+            "iterations_per_product": stepper.iterations / max(stepper.products, 1)}
 
 
 def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, track: bool, callback,
@@ -158,6 +194,8 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
     q, p = q0.copy(), p0.copy()
     status, message = "completed", f"{n_steps} steps"
     e0 = energies(a, potential, q, p)
+    if not np.isfinite(e0[2]):
+        return _nothing_integrated(q, e0, stepper, tol)
     steps, qs, ps, es = [0], [q.copy()], [p.copy()], [e0]
     worst = np.zeros(3)
     n = 0
@@ -165,16 +203,17 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
         g = stepper.force(q)
         while n < n_steps:
             q_next, p_next, g_next = stepper.step(q, p, g)
-            if not (np.all(np.isfinite(q_next)) and np.all(np.isfinite(p_next))):
+            u_next = g_next["value"] if "value" in g_next else potential.value(q_next)
+            if not _finite(q_next, p_next, u_next):
                 status = "blow-up"
-                message = (f"the state is not finite at step {n + 1} (t = {(n + 1) * h:g}); kept the samples up "
-                           f"to step {n}, the last finite state")
+                message = (f"the solution blew up: the state is not finite at step {n + 1} (t = {(n + 1) * h:g}); "
+                           f"kept the samples up to step {n}, the last finite state")
                 break
             q, p, g = q_next, p_next, g_next
             n += 1
             keep = n % save_every == 0 or n == n_steps
             if track or keep:
-                e = energies(a, potential, q, p)
+                e = energies(a, potential, q, p, u_next)
                 worst = np.maximum(worst, np.abs(e - e0))
             if keep:
                 steps.append(n)
@@ -200,8 +239,7 @@ def integrate(problem, method, q0, p0, h: float, n_steps: int, save_every: int, 
     if not track:
         worst = np.full(3, np.nan)
     samples = {"q": np.array(qs), "p": np.array(ps), "energies": table, "steps": np.array(steps, dtype=float)}
-    info = {"iterations": stepper.iterations, "products": stepper.products, "tolerance": tol,
-            "iterations_per_product": stepper.iterations / max(stepper.products, 1)}
+    info = _info(stepper, tol)
     return _native.run_result([status], [message], [n], np.r_[e0, np.nan, e0[1]][None, :],
                               np.r_[worst, np.nan, worst[1]][None, :], [samples],
                               interrupted=status == "interrupted", info=info)

@@ -29,17 +29,13 @@ def sympy():
 
 
 def parse(expr, names: Sequence[str], what: str = "expr"):
-    """`expr` as a SymPy expression; strings are parsed with `names` as plain symbols."""
+    """`expr` as a SymPy expression; strings are parsed as data (:func:`trigint._expr.parse_string`),
+    with `names` as plain symbols."""
     sp = sympy()
-    if isinstance(expr, str):
-        local = {name: sp.Symbol(name) for name in names}
-        try:
-            out = sp.sympify(expr, locals=local)
-        except Exception as exc:  # SymPy's parser raises many kinds (SyntaxError, TokenError, ...)
-            raise ValueError(f"{what}: could not parse {expr!r}: {exc}") from None
-        if not isinstance(out, sp.Basic):
-            raise ValueError(f"{what}: {expr!r} is not an expression (it names {type(out).__name__})")
-        return out
+    if isinstance(expr, str):  # data, never evaluated as Python (see trigint._expr)
+        from ._expr import parse_string
+
+        return parse_string(expr, names, what)
     if isinstance(expr, int | float) and not isinstance(expr, bool):
         return sp.Float(expr) if isinstance(expr, float) else sp.Integer(expr)
     if not isinstance(expr, sp.Basic):
@@ -89,6 +85,8 @@ def parameters(params: Mapping | None) -> dict[str, float]:
             raise ValueError(f"params: {name} = {v!r} is complex; parameters must be real numbers")
         try:
             x = float(v)
+        except OverflowError:
+            raise ValueError(f"params: {name} is too large for a double (at most about 1.8e308 in magnitude)") from None
         except (TypeError, ValueError):
             raise TypeError(f"params: {name} = {v!r} is not a number") from None
         if not math.isfinite(x):
@@ -124,12 +122,15 @@ class Compiler:
     def number(self, e) -> float:
         sp = sympy()
         if e.is_real is False or (e.has(sp.I)):
-            raise ValueError(f"{self.what}: the constant {e} is complex; the potential must be real")
+            raise ValueError(f"{self.what}: the constant {_show(e)} is complex; the potential must be real")
         if e in (sp.nan, sp.oo, -sp.oo, sp.zoo):
             raise ValueError(f"{self.what}: the constant {e} is not finite")
-        x = float(e)
+        try:
+            x = float(e)
+        except OverflowError:
+            x = math.inf
         if not math.isfinite(x):
-            raise ValueError(f"{self.what}: the constant {e} is not finite")
+            raise ValueError(f"{self.what}: the constant {_show(e)} is not finite (too large for a double)")
         return x
 
     def check(self, expr) -> None:
@@ -264,6 +265,15 @@ class Compiler:
             f"{self.what}: the power {e} has a non-constant exponent {x}; supported are integer and "
             "rational (or parameter) exponents; write exp(y*log(x)) for x**y"
         )
+
+
+def _show(e) -> str:
+    """A number for a message: its digits, shortened; a huge integer by its length."""
+    try:
+        text = str(e)
+    except ValueError:  # more digits than Python converts to text
+        return f"(an integer of about {int(abs(e.p).bit_length() * 0.30103)} digits)"
+    return text if len(text) <= 60 else text[:40] + "..." + text[-10:]
 
 
 def _is_param(x, params) -> bool:

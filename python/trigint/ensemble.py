@@ -67,7 +67,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         same store skips the finished chunks and returns the identical result, whatever its thread
         count, chunk size or client (the store keeps the chunking it was made with). A process
         killed at any moment, even while creating the store, loses at most the unfinished chunks.
-        A store written by a different call is refused.
+        A store written by a different call is refused. A finished chunk that no longer reads back
+        (each carries a checksum) is recomputed with a warning; a store that cannot be used
+        (damaged metadata, a missing array, a folder that cannot be written, a file or dangling
+        link in the way) raises :class:`trigint.StoreError` before anything is computed.
     progress : bool, optional
         A tqdm bar over chunks (default: for sweeps of 10⁸ trajectory-steps or more, when
         stderr is a terminal or in a notebook; ``True`` where no bar can be drawn prints a line
@@ -101,9 +104,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every, track_energies = saveat.every, saveat.track_energies
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int | np.integer)
-                                or threads < 1):
-        raise ValueError(f"threads: must be an integer >= 1 or None, got {threads!r}")
+    if threads is not None:
+        _at_least_one(threads, "threads", " or None")
     if threads is not None and threads > MAX_THREADS:
         raise ValueError(f"threads: at most {MAX_THREADS}, got {threads}")
     count = len(batch)
@@ -111,6 +113,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     _check_client(client)
     chunk = _chunk_size(chunk_size, count, client, threads)
     if store is not None:  # a store keeps the chunking it was made with (results do not depend on it)
+        if not isinstance(store, str | os.PathLike):
+            raise TypeError(f"store: expected a folder path (a str or pathlib.Path), got {type(store).__name__}")
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks)
@@ -122,9 +126,12 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
     results: dict[int, dict] = {}
     todo = list(range(len(spans)))
+    stored: dict[int, dict] = {}
     if sink is not None:
-        done = sink.done()
-        todo = [i for i in todo if not done[i]]
+        stored = sink.finished(spans)  # damaged finished chunks are left out: recomputed
+        todo = [i for i in todo if i not in stored]
+        if todo:
+            sink.prepare(len(todo))  # writable, before anything is computed
     if progress is not None and not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress: expected True, False or None, got {type(progress).__name__}")
     show = progress if progress is not None else (int(batch.n_steps.sum()) >= PROGRESS_FROM
@@ -144,7 +151,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         interrupted = True
     finally:
         bar.close()
-    ds = _assemble(problem, method, batch, names, spans, results, sink, save_every)
+    ds = _assemble(problem, method, batch, names, spans, results, stored, save_every)
     if interrupted:
         finished = int((ds.status == "completed").sum())
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
@@ -268,10 +275,18 @@ def _check_memory(problem, batch, save_every) -> None:
         )
 
 
+def _at_least_one(value, name: str, alternative: str = "") -> None:
+    """An integer >= 1: a float, string or bool is an IntegerTypeError (a TypeError, and a
+    ValueError as before), an integer below 1 a ValueError."""
+    if not _check.is_integer(value):
+        raise _check.IntegerTypeError(f"{name}: must be an integer >= 1{alternative}, got {value!r}")
+    if value < 1:
+        raise ValueError(f"{name}: must be an integer >= 1{alternative}, got {value!r}")
+
+
 def _chunk_size(chunk_size, count: int, client, threads) -> int:
     if chunk_size is not None:
-        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer) or chunk_size < 1:
-            raise ValueError(f"chunk_size: must be an integer >= 1, got {chunk_size!r}")
+        _at_least_one(chunk_size, "chunk_size")
         return int(chunk_size)
     if client is not None:
         return max(1, -(-count // 16))
@@ -429,7 +444,7 @@ def _potential_key(potential) -> str:
     return repr(spec)
 
 
-def _assemble(problem, method, batch, names, spans, results, sink, save_every) -> xr.Dataset:
+def _assemble(problem, method, batch, names, spans, results, stored, save_every) -> xr.Dataset:
     count, n, c = len(batch), problem.dim, len(names)
     arrays = {
         "max_deviation": np.full((count, c), np.nan), "initial_energies": np.full((count, c), np.nan),
@@ -440,13 +455,9 @@ def _assemble(problem, method, batch, names, spans, results, sink, save_every) -
         width = _max_samples(batch, save_every)
         arrays.update({"step": np.full((count, width), -1, dtype=np.int64), "q": np.full((count, width, n), np.nan),
                        "p": np.full((count, width, n), np.nan), "energies": np.full((count, width, c), np.nan)})
-    if sink is not None:
-        stored = sink.read(arrays)
-        done = sink.done()
-        for i, span in enumerate(spans):
-            if done[i]:
-                for name in arrays:
-                    arrays[name][span] = stored[name][span]
+    for i, rows in stored.items():  # finished chunks read back from the store
+        for name in arrays:
+            arrays[name][spans[i]] = rows[name]
     for i, out in results.items():
         for name, value in _chunk_arrays(out, spans[i], names, save_every, batch).items():
             arrays[name][spans[i]] = value

@@ -248,8 +248,9 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
 
 
 def _positive_int(value, name: str, allow_zero: bool = False) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name}: expected an integer, got {value!r} ({type(value).__name__})")
+    if not _check.is_integer(value):
+        raise _check.IntegerTypeError(f"{name}: expected an integer, got {_check.shown(value)} "
+                                      f"({type(value).__name__})")
     if value < (0 if allow_zero else 1):
         raise ValueError(f"{name}: must be {'>= 0' if allow_zero else '>= 1'}, got {value}")
     return int(value)
@@ -260,6 +261,8 @@ def _state(x, name: str, n: int) -> np.ndarray:
         raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
         a = np.ascontiguousarray(x, dtype=float)
+    except OverflowError:
+        raise ValueError(f"{name}: a value is too large for a double (at most about 1.8e308 in magnitude)") from None
     except (TypeError, ValueError):
         raise TypeError(f"{name}: expected an array of {n} floats") from None
     if a.shape != (n,):

@@ -103,6 +103,8 @@ class Potential(ABC):
 def _rows(q) -> np.ndarray:
     try:
         q = np.asarray(q, dtype=float)
+    except OverflowError:
+        raise ValueError("q: a value is too large for a double (at most about 1.8e308 in magnitude)") from None
     except (TypeError, ValueError):
         raise TypeError("q: expected an array of floats of shape (n,) or (m, n)") from None
     if q.ndim not in (1, 2) or q.shape[-1] == 0:
@@ -167,7 +169,9 @@ class FPUPotential(Potential):
     """
 
     def __init__(self, m: int = 3, coordinates: str = "diagonal"):
-        if isinstance(m, bool) or not isinstance(m, int | np.integer) or m < 1:
+        if not _check.is_integer(m):
+            raise _check.IntegerTypeError(f"m: the number of stiff springs must be an integer >= 1, got {m!r}")
+        if m < 1:
             raise ValueError(f"m: the number of stiff springs must be an integer >= 1, got {m!r}")
         if not isinstance(coordinates, str) or coordinates not in ("diagonal", "original"):
             raise ValueError(f"coordinates: expected 'diagonal' or 'original', got {coordinates!r}")
@@ -251,7 +255,9 @@ class ExpressionPotential(Potential):
     expr : sympy.Expr or str
         U in the symbols `coordinates` (and the names in `params`). Supported: + − × ÷,
         integer and rational powers, sqrt, exp, log, sin, cos, tan, sinh, cosh, tanh, Abs and
-        numbers.
+        numbers. A string is read as data, never run as Python: only numbers, the declared
+        names, pi, E, these functions, ``+ - * / ** ^`` and parentheses are accepted (sums of
+        any length), anything else is refused naming the token.
     coordinates : sequence of sympy.Symbol or str
         The coordinates q₁ … qₙ, in the problem's order.
     params : dict of str → float, optional
@@ -479,13 +485,7 @@ def _linear_rows(n: int, pairs, sites, matrix) -> dict:
     if sum(given) != 1:
         raise ValueError("give exactly one of pairs=, sites= or matrix=")
     if pairs is not None:
-        try:
-            p = np.asarray(list(pairs), dtype=np.int64)
-        except (TypeError, ValueError, OverflowError):
-            raise TypeError("pairs: expected a sequence of index pairs (i, j)") from None
-        if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] == 0:
-            raise ValueError(f"pairs: expected shape (terms, 2), got {p.shape}")
-        _check_indices(p, n, "pairs")
+        p = _check.indices(pairs, "pairs", n, width=2)
         if np.any(p[:, 0] == p[:, 1]):
             raise ValueError("pairs: a pair (i, i) is the zero form")
         idx = p[:, ::-1].reshape(-1)
@@ -493,13 +493,7 @@ def _linear_rows(n: int, pairs, sites, matrix) -> dict:
         ptr = np.arange(0, 2 * p.shape[0] + 1, 2)
         rows = p.shape[0]
     elif sites is not None:
-        try:
-            s = np.asarray(list(sites), dtype=np.int64).reshape(-1)
-        except (TypeError, ValueError, OverflowError):
-            raise TypeError("sites: expected a sequence of coordinate indices") from None
-        if s.size == 0:
-            raise ValueError("sites: empty")
-        _check_indices(s, n, "sites")
+        s = _check.indices(sites, "sites", n)
         idx, vals, ptr, rows = s, np.ones(s.size), np.arange(s.size + 1), s.size
     else:
         try:
@@ -516,12 +510,6 @@ def _linear_rows(n: int, pairs, sites, matrix) -> dict:
         idx, vals, ptr, rows = m.indices, m.data, m.indptr, m.shape[0]
     return {"rows": int(rows), "cols": n, "ptr": [int(x) for x in ptr],
             "idx": [int(x) for x in idx], "vals": np.ascontiguousarray(vals, dtype=float)}
-
-
-def _check_indices(a: np.ndarray, n: int, name: str) -> None:
-    bad = (a < 0) | (a >= n)
-    if bad.any():
-        raise ValueError(f"{name}: index {a[bad][0]} is outside 0 … {n - 1}")
 
 
 class PythonPotential(Potential):

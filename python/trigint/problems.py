@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _check
 from .potentials import FPUPotential, PolynomialPotential, fpu_original_basis
 from .problem import OscillatoryProblem
 
 
 def _positive(x, name: str) -> float:
-    x = float(x)
+    x = _check.real(x, name, finite=False)
     if not np.isfinite(x) or x <= 0:
         raise ValueError(f"{name}: must be finite and > 0, got {x}")
     return x

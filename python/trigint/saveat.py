@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _check
+
 #: the longest run accepted: 2**53 steps (step numbers stay exact in a double; at 7 ns per
 #: step it would take two years)
 MAX_STEPS = 2**53
@@ -14,7 +16,8 @@ MAX_STEPS = 2**53
 def check_steps(n: int, name: str) -> int:
     """n, if it is a run length this library can count (at most 2**53 steps)."""
     if n > MAX_STEPS:
-        raise ValueError(f"{name}: {n:.3g} steps is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
+        count = f"{n:.3g} steps" if n < 10**300 else f"{_check.shown(n)} (steps)"
+        raise ValueError(f"{name}: {count} is more than 2**53 = {MAX_STEPS:.3g}, the most allowed "
                          "(at 7 ns per step that would take two years)")
     return n
 
@@ -50,7 +53,9 @@ class SaveAt:
     def __post_init__(self):
         every = self.every
         if every is not None:
-            if isinstance(every, bool) or not isinstance(every, int | np.integer) or every < 1:
+            if not _check.is_integer(every):
+                raise _check.IntegerTypeError(f"save_every: must be an integer >= 1 or None, got {every!r}")
+            if every < 1:
                 raise ValueError(f"save_every: must be an integer >= 1 or None, got {every!r}")
             check_steps(int(every), "save_every")
             object.__setattr__(self, "every", int(every))

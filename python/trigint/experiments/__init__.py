@@ -17,7 +17,7 @@ from .claims import Claim, measure
 from .runners import run
 from .spec import FIGURES, load
 
-__all__ = ["FIGURES", "Claim", "load", "measure", "report", "reproduce", "run", "run_spec"]
+__all__ = ["FIGURES", "Claim", "load", "measure", "outputs", "report", "reproduce", "run", "run_spec"]
 
 
 def run_spec(spec: dict, out: Path, *, log=print) -> tuple[list[Claim], float]:
@@ -48,8 +48,53 @@ def run_spec(spec: dict, out: Path, *, log=print) -> tuple[list[Claim], float]:
     True
     """
     _announce(spec, log)
+    outputs(spec, out)  # before the run: no file may land outside `out`
     ds, seconds = _compute(spec)
     return _finish(spec, ds, seconds, out, log), seconds
+
+
+#: the files a spec writes into the output folder
+SUFFIXES = (".nc", ".png", ".pdf")
+
+
+def outputs(spec: dict, out) -> list[Path]:
+    """The files a spec writes (DIR/<id>.nc, .png, .pdf), each checked to resolve inside the
+    output folder `out` (an id such as "../x", or a link in `out` pointing elsewhere, is refused).
+
+    Parameters
+    ----------
+    spec : dict
+        A loaded spec (:func:`load`); its ``figure.id`` names the files.
+    out : str or path
+        The output folder.
+
+    Returns
+    -------
+    list of Path
+        The three files, resolved.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> [p.name for p in outputs({"figure": {"id": "fig5"}}, Path("results"))]
+    ['fig5.nc', 'fig5.png', 'fig5.pdf']
+    >>> try:
+    ...     outputs({"figure": {"id": "../fig5"}}, Path("results"))
+    ... except ValueError as exc:
+    ...     print(exc)
+    figure.id: '../fig5' would write ../fig5.nc outside the output folder results; give the figure a plain name
+    """
+    fid = spec["figure"]["id"]
+    folder = Path(out).resolve()
+    paths = []
+    for suffix in SUFFIXES:
+        relative = Path(f"{fid}{suffix}")
+        target = (folder / relative).resolve()
+        if target.parent != folder or relative.is_absolute():
+            raise ValueError(f"figure.id: {fid!r} would write {relative} outside the output folder {out}; give the "
+                             "figure a plain name")
+        paths.append(target)
+    return paths
 
 
 def _announce(spec: dict, log) -> None:
@@ -70,6 +115,7 @@ def _finish(spec: dict, ds, seconds: float, out: Path, log) -> list[Claim]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     fid = spec["figure"]["id"]
+    outputs(spec, out)  # checked again: the folder exists now, links in it are resolved
     ds.to_netcdf(out / f"{fid}.nc", engine="scipy")
     written = save(figure(ds), out / fid)
     claims = measure(ds)
@@ -174,6 +220,7 @@ def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed:
     for spec in specs:
         if seed:
             spec["figure"]["seed"] = int(seed)
+        outputs(spec, out)  # before any run
     start = time.perf_counter()
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = []

@@ -89,6 +89,21 @@ class Str:
 
 
 @dataclass(frozen=True)
+class FileName:
+    """A name that becomes the output files' name: one plain name, no folders."""
+
+    def check(self, key: str, value):
+        if not isinstance(value, str):
+            raise SpecError(f"{key}: expected a name such as \"fig5\", got {value!r}")
+        bad = [c for c in ("/", "\\", "\0") if c in value]
+        if not value.strip() or value in (".", "..") or bad:
+            raise SpecError(f"{key}: {value!r} cannot name output files: it must be one plain name (such as "
+                            "\"fig5\" or \"my-figure\"), without '/', '\\' or '..', so that every file stays "
+                            "in the output folder")
+        return value
+
+
+@dataclass(frozen=True)
 class Method:
     def check(self, key: str, value):
         from ..methods import resolve_method
@@ -133,7 +148,7 @@ POSITIVE = Float(positive=True)
 NONNEG = Float(low=0.0)
 
 COMMON = {
-    "id": Str(), "kind": Str(("families", "perturbed", "scan", "methods")), "title": Str(), "caption": Str(),
+    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods")), "title": Str(), "caption": Str(),
     "seed": Int(0, 10**6), "energy": Str(ENERGIES), "samples": Int(2, 10**7),
 }
 FPU = {"problem": Str(("fpu",)), "m": Int(1, 10**4), "omega": POSITIVE, "method": Method()}
