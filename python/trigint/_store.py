@@ -31,8 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-STATUS_CODES = {"completed": 0, "blow-up": 1, "interrupted": 2}
-STATUS_NAMES = {v: k for k, v in STATUS_CODES.items()}
+from ._outputs import STATUS_CODES
 
 #: what to do with a store that cannot be repaired
 START_AGAIN = "delete it (or move it away) and run the same call again to start over"

@@ -18,10 +18,11 @@ import warnings
 import numpy as np
 import xarray as xr
 
-from . import _check, _progress
+from . import _check, _outputs, _progress
 from ._batch import core_arguments, prepare, run_chunk
 from ._native import METHOD_ROWS
-from ._store import STATUS_CODES, STATUS_NAMES, SweepStore, fingerprint, stored_chunk_size
+from ._outputs import STATUS_NAMES
+from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
 from .integrate import MAX_SAMPLE_BYTES, sample_bytes
 from .methods import Method, resolve_method
@@ -142,7 +143,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         for i, out in _execute(client, todo, spans, batch, args, kwargs):
             results[i] = out
             if sink is not None and not out.interrupted:
-                sink.write(i, spans[i], _chunk_arrays(out, spans[i], names, save_every, batch))
+                sink.write(i, spans[i], _outputs.chunk_rows(out, _sizes(problem, batch, names, save_every),
+                                                            save_every is not None))
             bar.update(1)
             if out.interrupted:
                 interrupted = True
@@ -381,51 +383,22 @@ def _execute(client, todo, spans, batch, args, kwargs):
             future.cancel()
 
 
-def _chunk_arrays(out, span: slice, names, save_every, batch) -> dict:
-    """A chunk's RunResult as the arrays of the sweep's output table."""
-    arrays = {
-        "max_deviation": out.max_deviation,
-        "initial_energies": out.initial_energies,
-        "steps_done": np.asarray(out.steps_done, dtype=np.int64),
-        "status": np.array([STATUS_CODES[s] for s in out.status], dtype=np.int8),
-    }
+def _sizes(problem, batch, names, save_every) -> dict:
+    """The dimension sizes of a sweep's output table (``_outputs.OUTPUTS``)."""
+    sizes = {"trajectory": len(batch), "energy": len(names), "coordinate": problem.dim}
     if save_every is not None:
-        arrays.update(_padded_samples(out.samples, _max_samples(batch, save_every), batch.q0.shape[1], len(names)))
-    return arrays
+        sizes["sample"] = _max_samples(batch, save_every)
+    return sizes
 
 
 def _max_samples(batch, save_every) -> int:
     return int(np.max(batch.n_steps) // save_every + 2)
 
 
-def _padded_samples(samples: list, width: int, n: int, c: int) -> dict:
-    b = len(samples)
-    out = {"step": np.full((b, width), -1, dtype=np.int64), "q": np.full((b, width, n), np.nan),
-           "p": np.full((b, width, n), np.nan), "energies": np.full((b, width, c), np.nan)}
-    for t, s in enumerate(samples):
-        k = s["steps"].size
-        out["step"][t, :k] = s["steps"]
-        out["q"][t, :k] = s["q"]
-        out["p"][t, :k] = s["p"]
-        out["energies"][t, :k] = s["energies"]
-    return out
-
-
 def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans):
     if store is None:
         return None
-    count, n, c = len(batch), problem.dim, len(names)
-    shapes = {
-        "max_deviation": ((count, c), "float64", np.nan),
-        "initial_energies": ((count, c), "float64", np.nan),
-        "steps_done": ((count,), "int64", 0),
-        "status": ((count,), "int8", STATUS_CODES["interrupted"]),
-    }
-    if save_every is not None:
-        width = _max_samples(batch, save_every)
-        shapes.update({"step": ((count, width), "int64", -1), "q": ((count, width, n), "float64", np.nan),
-                       "p": ((count, width, n), "float64", np.nan),
-                       "energies": ((count, width, c), "float64", np.nan)})
+    shapes = _outputs.shapes(_sizes(problem, batch, names, save_every), save_every is not None)
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
         **({} if problem.stiffness is None else {"stiffness": problem.stiffness}),
@@ -445,36 +418,21 @@ def _potential_key(potential) -> str:
 
 
 def _assemble(problem, method, batch, names, spans, results, stored, save_every) -> xr.Dataset:
-    count, n, c = len(batch), problem.dim, len(names)
-    arrays = {
-        "max_deviation": np.full((count, c), np.nan), "initial_energies": np.full((count, c), np.nan),
-        "steps_done": np.zeros(count, dtype=np.int64),
-        "status": np.full(count, STATUS_CODES["interrupted"], dtype=np.int8),
-    }
-    if save_every is not None:
-        width = _max_samples(batch, save_every)
-        arrays.update({"step": np.full((count, width), -1, dtype=np.int64), "q": np.full((count, width, n), np.nan),
-                       "p": np.full((count, width, n), np.nan), "energies": np.full((count, width, c), np.nan)})
+    count = len(batch)
+    sizes, with_samples = _sizes(problem, batch, names, save_every), save_every is not None
+    arrays = _outputs.empty(sizes, with_samples)
     for i, rows in stored.items():  # finished chunks read back from the store
         for name in arrays:
             arrays[name][spans[i]] = rows[name]
     for i, out in results.items():
-        for name, value in _chunk_arrays(out, spans[i], names, save_every, batch).items():
+        for name, value in _outputs.chunk_rows(out, sizes, with_samples).items():
             arrays[name][spans[i]] = value
-    data = {
-        "max_deviation": (("trajectory", "energy"), arrays["max_deviation"]),
-        "initial_energies": (("trajectory", "energy"), arrays["initial_energies"]),
-        "steps_done": ("trajectory", arrays["steps_done"]),
-        "status": ("trajectory", np.array([STATUS_NAMES[int(s)] for s in arrays["status"]], dtype=object)),
-    }
+    arrays["status"] = np.array([STATUS_NAMES[int(s)] for s in arrays["status"]], dtype=object)
+    data = {o.name: (o.dims, arrays[o.name]) for o in _outputs.outputs(with_samples)}
     coords = {"trajectory": np.arange(count), "energy": names, "h": ("trajectory", batch.h),
               "n_steps": ("trajectory", batch.n_steps)}
-    if save_every is not None:
+    if with_samples:
         step = arrays["step"]
-        data["q"] = (("trajectory", "sample", "coordinate"), arrays["q"])
-        data["p"] = (("trajectory", "sample", "coordinate"), arrays["p"])
-        data["energies"] = (("trajectory", "sample", "energy"), arrays["energies"])
-        data["step"] = (("trajectory", "sample"), step)
         data["t"] = (("trajectory", "sample"), np.where(step >= 0, step * batch.h[:, None], np.nan))
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(method=repr(method), problem=repr(problem))
