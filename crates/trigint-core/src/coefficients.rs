@@ -159,8 +159,11 @@ pub struct Weights<L, S> {
 }
 
 /// Lane b's number for coordinate i, from lane b's method (lanes beyond `methods` repeat the
-/// last one: they are padding that is never reported).
-fn lanes<L: Real>(methods: &[&MethodCoefficients], f: impl Fn(&MethodCoefficients) -> f64) -> L {
+/// last one: they are padding that is never reported). Set-up code: the numbers come through
+/// `&dyn Fn`, so this and [`row`] are compiled once per lane type and shape, not once per
+/// number (which bought no speed and cost build time).
+#[inline(never)]
+fn lanes<L: Real>(methods: &[&MethodCoefficients], f: &dyn Fn(&MethodCoefficients) -> f64) -> L {
     let mut v = L::zero();
     for b in 0..L::LANES {
         v.set_lane(b, f(methods[b.min(methods.len() - 1)]));
@@ -168,14 +171,15 @@ fn lanes<L: Real>(methods: &[&MethodCoefficients], f: impl Fn(&MethodCoefficient
     v
 }
 
+#[inline(never)]
 fn row<L: Real, Sh: Shape>(
     sh: &Sh,
     methods: &[&MethodCoefficients],
-    f: impl Fn(&MethodCoefficients, usize) -> f64,
+    f: &dyn Fn(&MethodCoefficients, usize) -> f64,
 ) -> Sh::S<L> {
     let mut s = Sh::S::<L>::filled(sh.n(), L::zero());
     for (i, x) in s.get_mut().iter_mut().enumerate() {
-        *x = lanes(methods, |m| f(m, i));
+        *x = lanes(methods, &|m| f(m, i));
     }
     s
 }
@@ -185,21 +189,21 @@ impl<L: Real, S: Storage<L>> Coef<L, S> {
     pub fn new<Sh: Shape<S<L> = S>>(sh: &Sh, methods: &[&MethodCoefficients]) -> Self {
         let c = |m: &MethodCoefficients, i: usize| 1.0 - m.one_minus_cos[i];
         Coef {
-            h: lanes(methods, |m| m.h),
-            h2: lanes(methods, |m| m.h * m.h),
-            half_h2: lanes(methods, |m| 0.5 * m.h * m.h),
-            inv_2h: lanes(methods, |m| 1.0 / (2.0 * m.h)),
-            half_h: lanes(methods, |m| 0.5 * m.h),
-            omc: row::<L, Sh>(sh, methods, |m, i| m.one_minus_cos[i]),
-            two_omc: row::<L, Sh>(sh, methods, |m, i| 2.0 * m.one_minus_cos[i]),
-            h2_psi: row::<L, Sh>(sh, methods, |m, i| m.h * m.h * m.psi[i]),
-            half_h2_psi: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * m.h * m.psi[i]),
-            phi: row::<L, Sh>(sh, methods, |m, i| m.phi[i]),
-            inv_2h_chi: row::<L, Sh>(sh, methods, |m, i| 1.0 / (2.0 * m.h * m.chi[i])),
-            h_chi: row::<L, Sh>(sh, methods, |m, i| m.h * m.chi[i]),
-            p_from_q: row::<L, Sh>(sh, methods, |m, i| -m.sin2_over_h_chi[i]),
-            half_h_psi0: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * c(m, i) * m.psi_over_chi[i]),
-            half_h_psi1: row::<L, Sh>(sh, methods, |m, i| 0.5 * m.h * m.psi_over_chi[i]),
+            h: lanes(methods, &|m| m.h),
+            h2: lanes(methods, &|m| m.h * m.h),
+            half_h2: lanes(methods, &|m| 0.5 * m.h * m.h),
+            inv_2h: lanes(methods, &|m| 1.0 / (2.0 * m.h)),
+            half_h: lanes(methods, &|m| 0.5 * m.h),
+            omc: row::<L, Sh>(sh, methods, &|m, i| m.one_minus_cos[i]),
+            two_omc: row::<L, Sh>(sh, methods, &|m, i| 2.0 * m.one_minus_cos[i]),
+            h2_psi: row::<L, Sh>(sh, methods, &|m, i| m.h * m.h * m.psi[i]),
+            half_h2_psi: row::<L, Sh>(sh, methods, &|m, i| 0.5 * m.h * m.h * m.psi[i]),
+            phi: row::<L, Sh>(sh, methods, &|m, i| m.phi[i]),
+            inv_2h_chi: row::<L, Sh>(sh, methods, &|m, i| 1.0 / (2.0 * m.h * m.chi[i])),
+            h_chi: row::<L, Sh>(sh, methods, &|m, i| m.h * m.chi[i]),
+            p_from_q: row::<L, Sh>(sh, methods, &|m, i| -m.sin2_over_h_chi[i]),
+            half_h_psi0: row::<L, Sh>(sh, methods, &|m, i| 0.5 * m.h * c(m, i) * m.psi_over_chi[i]),
+            half_h_psi1: row::<L, Sh>(sh, methods, &|m, i| 0.5 * m.h * m.psi_over_chi[i]),
             phi_is_identity: methods
                 .iter()
                 .all(|m| m.phi[sh.ns()..].iter().all(|&x| x == 1.0)),
@@ -218,9 +222,9 @@ impl<L: Real, S: Storage<L>> Weights<L, S> {
             .iter()
             .all(|m| (ns..sh.n()).all(|i| m.modified_p[i] == 1.0 && m.modified_q[i] == omega2[i]));
         Weights {
-            omega2: row::<L, Sh>(sh, methods, |_, i| omega2[i]),
-            modified_p: row::<L, Sh>(sh, methods, |m, i| m.modified_p[i]),
-            modified_q: row::<L, Sh>(sh, methods, |m, i| m.modified_q[i]),
+            omega2: row::<L, Sh>(sh, methods, &|_, i| omega2[i]),
+            modified_p: row::<L, Sh>(sh, methods, &|m, i| m.modified_p[i]),
+            modified_q: row::<L, Sh>(sh, methods, &|m, i| m.modified_q[i]),
             plain_modified,
             _lane: std::marker::PhantomData,
         }

@@ -1,58 +1,51 @@
 //! What a careful step records: blow-ups, running extremes, samples, a lane's end, and the
 //! outputs of a finished bundle.
+//!
+//! The bookkeeping is written as functions of the lane type alone ([`LaneBook`]): it runs at events,
+//! not in the tight loop, so compiling it once per potential kind and shape (as methods of the
+//! generic [`Bundle`] would be) bought no speed and cost build time. The bundle's methods here
+//! only hand it their parts.
 
-use super::bundle::Bundle;
-use crate::energy::{max_deviation, FIRST_BLOCK, MODIFIED, OSCILLATORY, TOTAL};
-use crate::output::{Status, TrajectoryOutput};
+use super::bundle::{Bundle, Lane};
+use crate::energy::{max_deviation, Extremes, FIRST_BLOCK, MODIFIED, OSCILLATORY, TOTAL};
+use crate::output::{Record, Status, TrajectoryOutput};
 use crate::potential::Potential;
 use crate::real::{LaneSet, Real};
 use crate::shape::{Shape, Storage};
 
-impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
-    /// What a careful step does with its observation (the state at step i is in q and p).
-    pub(super) fn take_observation(
-        &mut self,
-        i: u64,
-        main: &[L; FIRST_BLOCK],
-        blocks: &[L],
-        event: bool,
-    ) {
-        let bad = main[TOTAL].nonfinite_lanes() & self.active;
-        for b in bad.iter() {
-            self.blow_up(b, i);
-        }
-        if self.record.track {
-            self.update_extremes(main, blocks, self.active);
-        }
-        if event {
-            let sampling = i == 0 || self.record.save_every.is_some_and(|s| i.is_multiple_of(s));
-            for b in self.active.iter() {
-                let ends = self.lanes[b].n_steps == i;
-                if ends || sampling {
-                    self.sample(b, i, main, blocks);
-                }
-                if ends {
-                    self.end_lane(b, Status::Completed, i);
-                    self.lanes[b].message = format!("completed {i} steps");
-                }
-            }
-        }
-        self.good.step = i;
-        self.good.q.get_mut().copy_from_slice(self.st.q.get());
-        self.good.p.get_mut().copy_from_slice(self.st.p.get());
-        self.good.main = *main;
-        self.good.blocks.clone_from_slice(blocks);
-    }
+/// The lanes' bookkeeping and the facts about the run it needs.
+pub(super) struct LaneBook<'a, L: Real> {
+    pub lanes: &'a mut [Lane],
+    pub ext: &'a mut Extremes<L>,
+    pub active: &'a mut LaneSet,
+    pub record: Record,
+    /// ℓ, and whether the oscillatory coordinates form one block
+    pub n_blocks: usize,
+    pub single_block: bool,
+    /// H* is H_ω: its extremes are not kept separately
+    pub plain_modified: bool,
+}
 
+/// The last observed (good) state of a bundle, as lane values.
+pub(super) struct Good<'a, L> {
+    pub step: u64,
+    pub q: &'a [L],
+    pub p: &'a [L],
+    pub main: &'a [L; FIRST_BLOCK],
+    pub blocks: &'a [L],
+}
+
+impl<L: Real> LaneBook<'_, L> {
     /// Running extremes of the lanes in `mask` (all lanes at once when the mask is full).
-    pub(super) fn update_extremes(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], mask: LaneSet) {
+    #[inline(never)]
+    pub fn update_extremes(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], mask: LaneSet) {
+        let ext = &mut *self.ext;
         if mask == LaneSet::first(L::LANES) {
-            self.ext.update(main, false);
-            self.ext.update_blocks(blocks);
+            ext.update(main, false);
+            ext.update_blocks(blocks);
             return;
         }
         for b in mask.iter() {
-            let ext = &mut self.ext;
             for c in 0..FIRST_BLOCK {
                 let e = main[c].lane(b);
                 let (hi, lo) = (ext.high[c].lane(b), ext.low[c].lane(b));
@@ -69,10 +62,10 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     }
 
     /// The energy row of lane b in channel order.
-    pub(super) fn row(&self, main: &[L; FIRST_BLOCK], blocks: &[L], b: usize) -> Vec<f64> {
+    pub fn row(&self, main: &[L; FIRST_BLOCK], blocks: &[L], b: usize) -> Vec<f64> {
         let mut r: Vec<f64> = main.iter().map(|x| x.lane(b)).collect();
-        if self.sh.single_block() {
-            if !self.sh.block_ends().is_empty() {
+        if self.single_block {
+            if self.n_blocks > 0 {
                 r.push(main[OSCILLATORY].lane(b));
             }
         } else {
@@ -83,7 +76,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
 
     /// Keeps lane b's state at `step` (from q and p as given) unless it is kept already or the
     /// run keeps no samples.
-    pub(super) fn keep(&mut self, b: usize, step: u64, q: &[L], p: &[L], row: Vec<f64>) {
+    #[inline(never)]
+    pub fn keep(&mut self, b: usize, step: u64, q: &[L], p: &[L], row: Vec<f64>) {
         let s = &mut self.lanes[b].samples;
         if self.record.save_every.is_none() || s.steps.last() == Some(&step) {
             return;
@@ -94,44 +88,17 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         s.energies.extend(row);
     }
 
-    pub(super) fn sample(&mut self, b: usize, step: u64, main: &[L; FIRST_BLOCK], blocks: &[L]) {
-        let row = self.row(main, blocks, b);
-        let (q, p) = (self.st.q.clone(), self.st.p.clone());
-        self.keep(b, step, q.get(), p.get(), row);
-    }
-
     /// Keeps lane b's last good state.
-    pub(super) fn keep_good(&mut self, b: usize) {
-        let row = self.row(&self.good.main, &self.good.blocks, b);
-        let (q, p) = (self.good.q.clone(), self.good.p.clone());
-        self.keep(b, self.good.step, q.get(), p.get(), row);
-    }
-
-    /// Lane b is not finite at step i: it ends at step i − 1, whose state is kept.
-    pub(super) fn blow_up(&mut self, b: usize, i: u64) {
-        if i == 0 {
-            self.end_lane(b, Status::BlowUp, 0);
-            self.lanes[b].message = format!(
-                "the potential is not finite at the initial state (U(q0) = {}); nothing was \
-                 integrated",
-                self.st.u.lane(b)
-            );
-            return;
-        }
-        let good = self.good.step;
-        self.keep_good(b);
-        self.end_lane(b, Status::BlowUp, good);
-        self.lanes[b].message = format!(
-            "the solution blew up: the state at step {i} is not finite; kept the samples up to \
-             step {good}, the last finite state"
-        );
+    pub fn keep_good(&mut self, b: usize, good: &Good<'_, L>) {
+        let row = self.row(good.main, good.blocks, b);
+        self.keep(b, good.step, good.q, good.p, row);
     }
 
     /// Freezes lane b's extremes and takes it out of the running.
-    pub(super) fn end_lane(&mut self, b: usize, status: Status, steps_done: u64) {
-        let n_blocks = self.sh.block_ends().len();
-        let (mut high, mut low) = self.ext.lane(b, n_blocks);
-        if self.w.plain_modified {
+    #[inline(never)]
+    pub fn end_lane(&mut self, b: usize, status: Status, steps_done: u64, message: String) {
+        let (mut high, mut low) = self.ext.lane(b, self.n_blocks);
+        if self.plain_modified {
             // H* is H_ω: its extremes were not kept separately.
             high[MODIFIED] = high[OSCILLATORY];
             low[MODIFIED] = low[OSCILLATORY];
@@ -141,39 +108,164 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         lane.steps_done = steps_done;
         lane.high = high;
         lane.low = low;
+        lane.message = message;
         self.active.remove(b);
+    }
+
+    /// Lane b is not finite at step i: it ends at step i − 1, whose state is kept.
+    #[inline(never)]
+    pub fn blow_up(&mut self, b: usize, i: u64, u: L, good: &Good<'_, L>) {
+        if i == 0 {
+            let message = format!(
+                "the potential is not finite at the initial state (U(q0) = {}); nothing was \
+                 integrated",
+                u.lane(b)
+            );
+            self.end_lane(b, Status::BlowUp, 0, message);
+            return;
+        }
+        self.keep_good(b, good);
+        let message = format!(
+            "the solution blew up: the state at step {i} is not finite; kept the samples up to \
+             step {}, the last finite state",
+            good.step
+        );
+        self.end_lane(b, Status::BlowUp, good.step, message);
     }
 
     /// A stop request at step e (observed, state already advanced): the running lanes end
     /// there, their last observed state kept.
-    pub(super) fn interrupt(&mut self, e: u64) {
+    #[inline(never)]
+    pub fn interrupt(&mut self, e: u64, good: &Good<'_, L>) {
         for b in self.active.iter() {
-            self.keep_good(b);
+            self.keep_good(b, good);
             let n = self.lanes[b].n_steps;
-            self.end_lane(b, Status::Interrupted, e);
-            self.lanes[b].message = format!(
+            let message = format!(
                 "interrupted after step {e} of {n}; kept the samples up to there, the state at \
                  step {e} included"
             );
+            self.end_lane(b, Status::Interrupted, e, message);
         }
     }
 
+    /// What a careful step does with its observation of step i (state q, p; U in `u`): lanes
+    /// not finite blow up, extremes, samples at events, lanes that end there.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn observe(
+        &mut self,
+        i: u64,
+        (q, p, u): (&[L], &[L], L),
+        main: &[L; FIRST_BLOCK],
+        blocks: &[L],
+        event: bool,
+        good: &Good<'_, L>,
+    ) {
+        let bad = main[TOTAL].nonfinite_lanes() & *self.active;
+        for b in bad.iter() {
+            self.blow_up(b, i, u, good);
+        }
+        if self.record.track {
+            let active = *self.active;
+            self.update_extremes(main, blocks, active);
+        }
+        if event {
+            let sampling = i == 0 || self.record.save_every.is_some_and(|s| i.is_multiple_of(s));
+            for b in self.active.iter() {
+                let ends = self.lanes[b].n_steps == i;
+                if ends || sampling {
+                    let row = self.row(main, blocks, b);
+                    self.keep(b, i, q, p, row);
+                }
+                if ends {
+                    self.end_lane(b, Status::Completed, i, format!("completed {i} steps"));
+                }
+            }
+        }
+    }
+}
+
+/// The outputs of a finished bundle's lanes.
+pub(super) fn finish(lanes: Vec<Lane>, track: bool) -> Vec<TrajectoryOutput> {
+    lanes
+        .into_iter()
+        .map(|lane| TrajectoryOutput {
+            status: lane.status,
+            steps_done: lane.steps_done,
+            max_deviation: if track && !lane.high.is_empty() {
+                max_deviation(&lane.initial, &lane.high, &lane.low)
+            } else {
+                vec![f64::NAN; lane.initial.len()]
+            },
+            initial_energies: lane.initial,
+            samples: lane.samples,
+            message: lane.message,
+        })
+        .collect()
+}
+
+/// `(LaneBook, Good)` of a bundle, borrowing its fields one by one.
+macro_rules! parts {
+    ($b:expr) => {{
+        let lanes = LaneBook {
+            lanes: &mut $b.lanes,
+            ext: &mut $b.ext,
+            active: &mut $b.active,
+            record: $b.record,
+            n_blocks: $b.sh.block_ends().len(),
+            single_block: $b.sh.single_block(),
+            plain_modified: $b.w.plain_modified,
+        };
+        let good = Good {
+            step: $b.good.step,
+            q: $b.good.q.get(),
+            p: $b.good.p.get(),
+            main: &$b.good.main,
+            blocks: &$b.good.blocks,
+        };
+        (lanes, good)
+    }};
+}
+
+impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
+    /// The lanes' bookkeeping and the last good state, borrowed field by field from the bundle
+    /// (so that the state can be borrowed beside them).
+    fn parts(&mut self) -> (LaneBook<'_, L>, Good<'_, L>) {
+        parts!(self)
+    }
+
+    /// What a careful step does with its observation (the state at step i is in q and p).
+    pub(super) fn take_observation(
+        &mut self,
+        i: u64,
+        main: &[L; FIRST_BLOCK],
+        blocks: &[L],
+        event: bool,
+    ) {
+        {
+            let (mut lanes, good) = parts!(self);
+            let state = (self.st.q.get(), self.st.p.get(), self.st.u);
+            lanes.observe(i, state, main, blocks, event, &good);
+        }
+        self.good.step = i;
+        self.good.q.get_mut().copy_from_slice(self.st.q.get());
+        self.good.p.get_mut().copy_from_slice(self.st.p.get());
+        self.good.main = *main;
+        self.good.blocks.clone_from_slice(blocks);
+    }
+
+    /// The energy row of lane b in channel order.
+    pub(super) fn row(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], b: usize) -> Vec<f64> {
+        self.parts().0.row(main, blocks, b)
+    }
+
+    /// A stop request at step e: the running lanes end there, their last observed state kept.
+    pub(super) fn interrupt(&mut self, e: u64) {
+        let (mut lanes, good) = self.parts();
+        lanes.interrupt(e, &good);
+    }
+
     pub(super) fn finish(self) -> Vec<TrajectoryOutput> {
-        let track = self.record.track;
-        self.lanes
-            .into_iter()
-            .map(|lane| TrajectoryOutput {
-                status: lane.status,
-                steps_done: lane.steps_done,
-                max_deviation: if track && !lane.high.is_empty() {
-                    max_deviation(&lane.initial, &lane.high, &lane.low)
-                } else {
-                    vec![f64::NAN; lane.initial.len()]
-                },
-                initial_energies: lane.initial,
-                samples: lane.samples,
-                message: lane.message,
-            })
-            .collect()
+        finish(self.lanes, self.record.track)
     }
 }
