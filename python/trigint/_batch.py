@@ -130,7 +130,7 @@ def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> di
     """The core's rows for every step size in `h` (shape (D,)), each of shape (D, n): one
     elementwise evaluation over all (step size, coordinate) pairs."""
     d, n = h.size, omega.size
-    co = method._pointwise(np.repeat(h, n), np.tile(omega, d))
+    co = method.pointwise(np.repeat(h, n), np.tile(omega, d))
     rows = _native.method_rows(co, np.tile(omega > 0, d))
     return {k: v.reshape(d, n) for k, v in rows.items()}
 

@@ -143,6 +143,40 @@ class Method(ABC):
             raise ValueError("omega: need n >= 1 finite frequencies >= 0")
         return self._pointwise(np.full(omega.size, h), omega, h, form=form)
 
+    def pointwise(self, h, omega, form: str = "two-step") -> Coefficients:
+        """The coefficients at pairs (h_i, ω_i), elementwise: one coordinate of one step size each.
+
+        Ensembles evaluate every trajectory's step size in one call this way; the numbers equal
+        those of :meth:`coefficients` for each step size, bit for bit.
+
+        Parameters
+        ----------
+        h : array of shape (n,)
+            Step sizes, > 0.
+        omega : array of shape (n,)
+            Frequencies, >= 0.
+        form : {"two-step", "one-step"}
+            As in :meth:`coefficients`.
+
+        Returns
+        -------
+        Coefficients
+
+        Examples
+        --------
+        >>> import numpy as np, trigint as ti
+        >>> co = ti.Trigonometric("B").pointwise(np.array([0.01, 0.02]), np.array([50.0, 50.0]))
+        >>> bool(co.chi[1] == ti.Trigonometric("B").coefficients(0.02, [50.0]).chi[0])
+        True
+        """
+        h = np.asarray(h, dtype=float).reshape(-1)
+        omega = np.asarray(omega, dtype=float).reshape(-1)
+        if h.shape != omega.shape or h.size == 0 or not np.all((h > 0) & np.isfinite(h)):
+            raise ValueError("h, omega: need arrays of the same length >= 1, h finite and > 0")
+        if not np.all(np.isfinite(omega)) or np.any(omega < 0):
+            raise ValueError("omega: need finite frequencies >= 0")
+        return self._pointwise(h, omega, form=form)
+
     def _pointwise(self, h: np.ndarray, omega: np.ndarray, h_report=None, form: str = "two-step") -> Coefficients:
         """The coefficients at the pairs (h_i, ω_i), elementwise: one coordinate of one step
         size each. Ensembles evaluate every trajectory's step size in one call this way."""
@@ -498,6 +532,22 @@ class AlphaMethod(ModifiedTrigonometric):
         )
 
     def _check_step(self, xi, omega, h):
+        self.check_h_omega(xi)
+
+    def check_h_omega(self, h_omega) -> None:
+        """Refuses products hω at or beyond the method's limit hω < 2/√(1 − 4α) (α < ¼).
+
+        Parameters
+        ----------
+        h_omega : array_like
+            The products hω_j.
+
+        Raises
+        ------
+        ValueError
+            Naming the limit and the largest hω.
+        """
+        xi = np.asarray(h_omega, dtype=float)
         if self.alpha < 0.25 and np.any(xi >= self.h_omega_limit):
             raise ValueError(self._limit_message(float(np.max(xi))))
 

@@ -418,8 +418,7 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
     alpha = limit = None
     if isinstance(method, AlphaMethod):
         alpha, limit = method.alpha, float(method.h_omega_limit)
-        if np.any(h * w >= limit):
-            raise ValueError(method._limit_message(float(np.max(h * w))))
+        method.check_h_omega(h * w)
     effective = method.modified_h_omega(h * w) / h if modified else w
     xi = h * effective
     kappa = float(np.min(np.abs(np.sin(xi))))
