@@ -2,7 +2,7 @@
 //! lanes on a rayon pool). Both validate, choose the shape (compile-time sizes for small
 //! problems) and the instruction set, and run [`Bundle`]s: one run loop for both.
 //!
-//! The run loop: [`bundle`] (a bundle's state, the driver from event to event, checkpoints and
+//! The run loop: `bundle` (a bundle's state, the driver from event to event, checkpoints and
 //! replay), `hot` (the tight loop between events), `record` (what a careful step records).
 
 use std::sync::atomic::{AtomicBool, Ordering};
