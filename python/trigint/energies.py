@@ -9,7 +9,8 @@ import numpy as np
 import xarray as xr
 
 from . import _native
-from .methods import Coefficients, Method
+from .coefficients import Coefficients
+from .methods import Method
 from .problem import OscillatoryProblem
 
 
