@@ -18,8 +18,6 @@ from . import _core
 
 #: the rows of a method's numbers, in the order of the core's table (``_core.METHOD_ROWS``)
 METHOD_ROWS: tuple[str, ...] = tuple(_core.METHOD_ROWS)
-#: the energy channels of the core's table: name, form, per_block (``_core.CHANNELS``)
-CHANNELS: tuple[dict, ...] = tuple(_core.CHANNELS)
 
 
 def channel_names(n_blocks: int) -> list[str]:
