@@ -66,8 +66,8 @@ def _batched(x, name: str, n: int) -> np.ndarray:
 def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_steps) -> Batch:
     """Validates and broadcasts the inputs and evaluates every trajectory's coefficients."""
     n = problem.dim
-    q0 = _batched(q0, "q0", n)
-    p0 = _batched(p0, "p0", n)
+    q0 = _batched(problem.as_state(q0, "q0"), "q0", n)
+    p0 = _batched(problem.as_state(p0, "p0"), "p0", n)
     if np.iscomplexobj(h) or isinstance(h, bool | str):
         raise TypeError(f"h: expected a positive number or an array of them, got {h!r}")
     try:
@@ -140,7 +140,7 @@ def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, _native.Cor
     descriptions in the core's coordinates, and the layout that maps states to and from them
     (None if the core's coordinates are the user's)."""
     lay = _native.core_layout(problem)
-    order = None if lay.identity and lay.basis is None else lay
+    order = None if lay.identity and lay.basis is None and lay.transform is None else lay
     return _native.potential_spec(problem.potential, lay), lay.spec, order
 
 

@@ -38,15 +38,22 @@ class CoreLayout:
     identity: bool
     #: Q, with q = Q x (None for a diagonal Ω)
     basis: np.ndarray | None = None
+    #: a map of the problem's own (``to_core``/``to_user``), e.g. grid values ⇄ Fourier
+    #: coordinates of a wave equation; the core's coordinates are then the map's, in order
+    transform: object | None = None
 
     def to_core(self, x: np.ndarray) -> np.ndarray:
         """User coordinates → core coordinates along the last axis."""
+        if self.transform is not None:
+            return self.transform.to_core(x)
         if self.basis is not None:
             return change_basis(x, self.basis)
         return x if self.identity else np.ascontiguousarray(x[..., self.perm])
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
         """Core coordinates → user coordinates along the last axis."""
+        if self.transform is not None:
+            return self.transform.to_user(x)
         if self.basis is not None:
             return change_basis(x, np.ascontiguousarray(self.basis.T))
         return x if self.identity else np.ascontiguousarray(x[..., self.inverse])
@@ -54,7 +61,8 @@ class CoreLayout:
     def rows_to_core(self, x: np.ndarray) -> np.ndarray:
         """Per-coordinate numbers (a method's rows) in the core's order: the modal
         coordinates already are."""
-        return np.ascontiguousarray(x) if self.basis is not None else self.to_core(x)
+        modal = self.basis is not None or self.transform is not None
+        return np.ascontiguousarray(x) if modal else self.to_core(x)
 
 
 def evaluator(spec: dict):
@@ -86,7 +94,8 @@ def core_layout(problem) -> CoreLayout:
     }
     # a stiffness matrix's modal coordinates come ordered (slow first, block by block): perm is
     # the identity and Q the whole map
-    return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))), problem.basis)
+    return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))), problem.basis,
+                      problem.coordinate_map)
 
 
 def method_rows(co, fast: np.ndarray) -> dict:

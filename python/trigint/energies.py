@@ -109,6 +109,9 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     w = layout(problem, coefficients)
     q_user = np.atleast_2d(q)
     q2, p2 = np.atleast_2d(q), np.atleast_2d(p)
+    if problem.coordinate_map is not None:
+        q2, p2 = problem.coordinate_map.to_core(q2), problem.coordinate_map.to_core(p2)
+        q_user = q2
     if problem.basis is not None:
         # the quadratic forms in the modal coordinates x = Qᵀq: |P_j q|² = |x_j|²
         q2, p2 = q2 @ problem.basis, p2 @ problem.basis

@@ -7,7 +7,6 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
-import xarray as xr
 
 from . import _check, _native
 from . import _progress as progress_report
@@ -134,8 +133,8 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     track_energies = saveat.track_energies
     if not isinstance(form, str) or form not in FORMS:
         raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
-    q0 = _state(q0, "q0", problem.dim)
-    p0 = _state(p0, "p0", problem.dim)
+    q0 = _state(problem.as_state(q0, "q0"), "q0", problem.dim)
+    p0 = _state(problem.as_state(p0, "p0"), "p0", problem.dim)
     n_samples = n_steps // save_every + 2
     if sample_bytes(problem, n_samples) > MAX_SAMPLE_BYTES:
         raise ValueError(
@@ -211,11 +210,9 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
                       RuntimeWarning, stacklevel=3)
     steps = samples["steps"].astype(np.int64)
     t = steps * h
-    energies = xr.Dataset(
-        {name: ("t", samples["energies"][:, k]) for k, name in enumerate(names)},
-        coords={"t": t, "step": ("t", steps)},
-        attrs={"method": repr(method), "h": h},
-    )
+    energies = problem.energy_dataset(names, samples["energies"], samples["q"], samples["p"],
+                                      coords={"t": t, "step": ("t", steps)},
+                                      attrs={"method": repr(method), "h": h})
     status, message = out.status[0], out.messages[0]
     if status != "completed":
         warnings.warn(message, RuntimeWarning, stacklevel=3)

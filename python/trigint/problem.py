@@ -94,6 +94,7 @@ class OscillatoryProblem:
             raise TypeError("potential: a trigint potential U(q) is required")
         self.stiffness = None
         self.basis = None
+        self.coordinate_map = None
         self.frequencies_found = None
         self.path = "diagonal"
         if stiffness is not None:
@@ -151,6 +152,19 @@ class OscillatoryProblem:
     def dim(self) -> int:
         """Number of coordinates n."""
         return self._n
+
+    def as_state(self, x, name: str):
+        """A state as the problem takes it (here: unchanged; a wave problem flattens its grid
+        values)."""
+        return x
+
+    def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
+                       coords: dict, attrs: dict):
+        """The energies at the samples as an xarray Dataset, one variable per channel over ``t``."""
+        import xarray as xr
+
+        return xr.Dataset({name: ("t", energies[:, k]) for k, name in enumerate(names)}, coords=coords,
+                          attrs=attrs)
 
     def require_spectrum(self, what: str) -> None:
         """Raises ValueError for a problem on the Krylov path, whose eigenvectors are never formed.

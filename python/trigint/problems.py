@@ -2,7 +2,8 @@
 
 - :func:`fpu`: alternating stiff and soft springs [GNI §I.5] (Experiment 2, Figures 2–4);
 - :func:`experiment1`: one degree of freedom, U(q) = q³ + q⁴ (Figure 1);
-- :func:`experiment3`: two frequencies ω and √2ω, U = 0.01 q₁q₂ (Figure 5).
+- :func:`experiment3`: two frequencies ω and √2ω, U = 0.01 q₁q₂ (Figure 5);
+- :func:`wave`: a semilinear wave equation on the torus, spectrally discretized.
 
 Each has an ``*_initial`` companion returning the paper's initial values ``(q0, p0)``.
 """
@@ -14,6 +15,7 @@ import numpy as np
 from . import _check
 from .potentials import FPUPotential, PolynomialPotential, fpu_original_basis
 from .problem import OscillatoryProblem
+from .wave import wave
 
 
 def _positive(x, name: str) -> float:

@@ -24,6 +24,7 @@ pub mod real;
 pub mod recursion;
 pub mod run;
 pub mod shape;
+pub mod spectral;
 pub mod sum;
 
 pub use channels::{channel_count, channel_names, Channel, CHANNELS};
@@ -31,7 +32,7 @@ pub use coefficients::MethodCoefficients;
 pub use energy::Samples;
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
-pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec};
+pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec, Wave};
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
 pub use run::Control;
 pub use run::{integrate, integrate_batch};

@@ -2,6 +2,7 @@
 //! around the core, and maps core errors to Python exceptions. No numerics live here.
 
 mod convert;
+mod grid;
 mod potential;
 mod result;
 
@@ -310,6 +311,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<Evaluator>()?;
     m.add_class::<RunResult>()?;
+    m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
     // The schemas, written once in the core: the method rows and the energy channels.

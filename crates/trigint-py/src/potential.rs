@@ -9,7 +9,7 @@ use numpy::{
 use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use trigint_core::{Chain, ChainTerm, CoreError, CoreResult, Fpu, Potential, Program, Real};
+use trigint_core::{Chain, ChainTerm, CoreError, CoreResult, Fpu, Potential, Program, Real, Wave};
 
 use crate::convert::{item, linear_map, program};
 
@@ -17,6 +17,7 @@ pub enum NativePotential {
     Fpu(Fpu),
     Program(Program),
     Chain(Chain),
+    Wave(Wave),
     Python(PythonCallbacks),
 }
 
@@ -27,6 +28,7 @@ macro_rules! with_potential {
             $crate::potential::NativePotential::Fpu($p) => $body,
             $crate::potential::NativePotential::Program($p) => $body,
             $crate::potential::NativePotential::Chain($p) => $body,
+            $crate::potential::NativePotential::Wave($p) => $body,
             $crate::potential::NativePotential::Python($p) => $body,
         }
     };
@@ -39,7 +41,8 @@ fn value_error(e: CoreError) -> PyErr {
 
 impl NativePotential {
     /// From `{"kind": "fpu", "m", "map"?}`, `{"kind": "program", …tape, "map"?}`,
-    /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}]}` or
+    /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}]}`,
+    /// `{"kind": "wave", "shape", "v": tape, "order"}` or
     /// `{"kind": "python", "n", "value", "gradient", "vectorized"}`.
     pub fn from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
         let kind: String = item(spec, "kind")?;
@@ -78,6 +81,17 @@ impl NativePotential {
                     Chain::new(item(spec, "n")?, terms).map_err(value_error)?,
                 ))
             }
+            "wave" => {
+                let v: Bound<'_, PyDict> = item(spec, "v")?;
+                Ok(Self::Wave(
+                    Wave::new(
+                        &item::<Vec<usize>>(spec, "shape")?,
+                        &program(&v)?,
+                        item(spec, "order")?,
+                    )
+                    .map_err(value_error)?,
+                ))
+            }
             "python" => Ok(Self::Python(PythonCallbacks {
                 dim: item(spec, "n")?,
                 value: item::<Bound<'_, PyAny>>(spec, "value")?.unbind(),
@@ -86,7 +100,7 @@ impl NativePotential {
                 error: Mutex::new(None),
             })),
             other => Err(PyValueError::new_err(format!(
-                "unknown potential kind {other:?}; expected fpu, program, chain or python"
+                "unknown potential kind {other:?}; expected fpu, program, chain, wave or python"
             ))),
         }
     }

@@ -11,16 +11,20 @@ never steps an ODE.
 from .conditions import ResonanceReport, Violation, analyze, nonresonance_violations, resonance_module
 from .gap import ModifiedFrequencies, gap, modified_frequencies
 from .steps import ResonantStep, resonant_step_sizes
+from .wave import WaveResonance, cfl_number, wave_resonances
 
 __all__ = [
     "ModifiedFrequencies",
     "ResonanceReport",
     "ResonantStep",
     "Violation",
+    "WaveResonance",
     "analyze",
+    "cfl_number",
     "gap",
     "modified_frequencies",
     "nonresonance_violations",
     "resonance_module",
     "resonant_step_sizes",
+    "wave_resonances",
 ]

@@ -3,7 +3,8 @@
 //!
 //! Kinds: [`Fpu`] (the FPU chain, written out in Rust: the reference), [`Program`] (any
 //! expression, compiled from a tape with its exact gradient), [`Chain`] (Σ_b V_b((Lq)_b):
-//! univariate programs of sparse linear forms, for long chains). The binding adds Python
+//! univariate programs of sparse linear forms, for long chains), [`Wave`] (mean_x V(u) of a
+//! field in real Fourier coordinates, through two FFTs). The binding adds Python
 //! callables. The kernels are generic over [`Potential`]; each kind is one type, so the force is
 //! inlined into the step loop wherever the kind allows it.
 
@@ -11,11 +12,13 @@ mod chain;
 mod compiled;
 mod fpu;
 mod linear;
+mod wave;
 
 pub use chain::{Chain, ChainTerm};
 pub use compiled::{Op, Program, ProgramSpec};
 pub use fpu::Fpu;
 pub use linear::{LinearMap, Segment, SegmentCoef};
+pub use wave::Wave;
 
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;

@@ -1,0 +1,239 @@
+//! The nonlinearity of a semilinear wave equation in real Fourier coordinates:
+//! U(q) = mean_x V(u) with u = S q on the grid ([`Spectral`]), and
+//! g(q) = −∇U(q) = −(1/N) Sᵀ V'(u): one transform to the grid, V and V' pointwise (a compiled
+//! one-variable program over all grid points), one transform back.
+//!
+//! Lanes are stepped one after the other through the same f64 code, so a trajectory has the
+//! same bits alone and in a bundle.
+
+use super::compiled::{Program, ProgramSpec};
+use super::Potential;
+use crate::error::{CoreError, CoreResult};
+use crate::real::Real;
+use crate::spectral::{Spectral, SpectralWorkspace};
+
+/// Grid points per tile of the interpreted evaluation of V.
+const TILE: usize = 128;
+
+/// U(q) = mean_x V((S q)(x)) on a periodic grid.
+#[derive(Debug)]
+pub struct Wave {
+    grid: Spectral,
+    v: Program,
+    /// Kernel coordinate k is Fourier coordinate `order[k]` of [`Spectral::slots`].
+    order: Vec<usize>,
+}
+
+pub struct WaveWorkspace {
+    fourier: Vec<f64>,
+    u: Vec<f64>,
+    g: Vec<f64>,
+    values: Vec<f64>,
+    registers: Vec<Vec<f64>>,
+    fft: SpectralWorkspace,
+}
+
+impl Wave {
+    /// V from a one-variable tape on a grid of `shape`; the kernel's coordinates are the
+    /// Fourier coordinates in `order` (a permutation of 0 … N−1).
+    pub fn new(shape: &[usize], v: &ProgramSpec, order: Vec<usize>) -> CoreResult<Self> {
+        if v.n_inputs != 1 {
+            return Err(CoreError::invalid(
+                "wave",
+                format!("V must be a function of u alone, got {} inputs", v.n_inputs),
+            ));
+        }
+        let grid = Spectral::new(shape)?;
+        let n = grid.points();
+        let mut seen = vec![false; n];
+        if order.len() != n
+            || !order
+                .iter()
+                .all(|&i| i < n && !std::mem::replace(&mut seen[i], true))
+        {
+            return Err(CoreError::invalid(
+                "wave",
+                format!("order must be a permutation of 0..{n}"),
+            ));
+        }
+        Ok(Wave {
+            v: Program::new(v, None)?,
+            grid,
+            order,
+        })
+    }
+
+    pub fn grid(&self) -> &Spectral {
+        &self.grid
+    }
+
+    /// U of one trajectory whose Fourier coordinates are in `ws.fourier`; −V' on the grid into
+    /// `ws.g` when `force`.
+    fn on_grid(&self, force: bool, with_value: bool, ws: &mut WaveWorkspace) -> f64 {
+        self.grid.to_grid(&ws.fourier, &mut ws.u, &mut ws.fft);
+        let g = if force { Some(&mut ws.g[..]) } else { None };
+        let total = self.v.eval_tiles(
+            &ws.u,
+            g,
+            with_value,
+            &mut ws.registers,
+            &mut ws.values,
+            TILE,
+        );
+        total / self.grid.points() as f64
+    }
+}
+
+impl Potential for Wave {
+    type Workspace<L: Real> = WaveWorkspace;
+    // The transforms dominate: one run-time shape and one copy of the kernels.
+    const SPECIALIZE: bool = false;
+
+    fn dim(&self) -> usize {
+        self.grid.points()
+    }
+
+    fn workspace<L: Real>(&self) -> WaveWorkspace {
+        let n = self.grid.points();
+        WaveWorkspace {
+            fourier: vec![0.0; n],
+            u: vec![0.0; n],
+            g: vec![0.0; n],
+            values: vec![0.0; n],
+            registers: self.v.tile_registers::<f64>(TILE),
+            fft: self.grid.workspace(),
+        }
+    }
+
+    fn force<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        ws: &mut WaveWorkspace,
+    ) -> CoreResult<L> {
+        let mut value = L::zero();
+        let scale = 1.0 / self.grid.points() as f64;
+        for b in 0..L::LANES {
+            for (k, &i) in self.order.iter().enumerate() {
+                ws.fourier[i] = x[k].lane(b);
+            }
+            value.set_lane(b, self.on_grid(true, with_value, ws));
+            // g = (1/N) Sᵀ(−V'(u)); the Fourier buffer takes the result.
+            self.grid
+                .transpose(&mut ws.g, &mut ws.fourier, scale, &mut ws.fft);
+            for (k, &i) in self.order.iter().enumerate() {
+                force[k].set_lane(b, ws.fourier[i]);
+            }
+        }
+        Ok(value)
+    }
+
+    fn value<L: Real>(&self, x: &[L], ws: &mut WaveWorkspace) -> CoreResult<L> {
+        let mut value = L::zero();
+        for b in 0..L::LANES {
+            for (k, &i) in self.order.iter().enumerate() {
+                ws.fourier[i] = x[k].lane(b);
+            }
+            value.set_lane(b, self.on_grid(false, true, ws));
+        }
+        Ok(value)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::potential::{Chain, Op};
+    use crate::real::Lanes;
+
+    /// V(u) = u⁴/4 + sin(u).
+    fn quartic_and_sine() -> ProgramSpec {
+        ProgramSpec {
+            n_inputs: 1,
+            ops: vec![
+                Op::Input(0),
+                Op::Powi(0, 4),
+                Op::Const(0.25),
+                Op::Mul(2, 1),
+                Op::Sin(0),
+                Op::Add(3, 4),
+            ],
+            output: 5,
+        }
+    }
+
+    #[test]
+    fn the_force_is_minus_the_gradient() {
+        for shape in [vec![16], vec![4, 6], vec![2, 4, 4]] {
+            let n: usize = shape.iter().product();
+            let order: Vec<usize> = (0..n).rev().collect();
+            let w = Wave::new(&shape, &quartic_and_sine(), order).unwrap();
+            let mut ws = w.workspace::<f64>();
+            let x: Vec<f64> = (0..n).map(|i| 0.3 * ((i as f64) * 0.77).sin()).collect();
+            let mut f = vec![0.0; n];
+            let u0 = w.force(&x, &mut f, true, &mut ws).unwrap();
+            assert_eq!(w.value(&x, &mut ws).unwrap().to_bits(), u0.to_bits());
+            for i in 0..n {
+                let e = 1e-6;
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[i] += e;
+                xm[i] -= e;
+                let d =
+                    (w.value(&xp, &mut ws).unwrap() - w.value(&xm, &mut ws).unwrap()) / (2.0 * e);
+                assert!(
+                    (f[i] + d).abs() < 1e-8,
+                    "{shape:?} coordinate {i}: {} vs {}",
+                    f[i],
+                    -d
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_constant_field_gives_the_mean_of_v() {
+        // u ≡ c is the j = 0 coordinate c; U = V(c).
+        let w = Wave::new(&[8], &Chain::monomial(0.25, 4), (0..8).collect()).unwrap();
+        let mut x = vec![0.0; 8];
+        x[0] = 1.5;
+        let u = w.value(&x, &mut w.workspace::<f64>()).unwrap();
+        assert!((u - 0.25 * 1.5f64.powi(4)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn lanes_have_their_own_trajectorys_bits() {
+        let w = Wave::new(&[6, 4], &quartic_and_sine(), (0..24).collect()).unwrap();
+        let xl: Vec<Lanes<4>> = (0..24)
+            .map(|i| Lanes(std::array::from_fn(|b| ((i * (b + 1)) as f64 * 0.31).cos())))
+            .collect();
+        let mut fl = vec![Lanes::<4>::zero(); 24];
+        let ul = w
+            .force(&xl, &mut fl, true, &mut w.workspace::<Lanes<4>>())
+            .unwrap();
+        for b in 0..4 {
+            let x: Vec<f64> = xl.iter().map(|v| v.0[b]).collect();
+            let mut f = vec![0.0; 24];
+            let u = w
+                .force(&x, &mut f, true, &mut w.workspace::<f64>())
+                .unwrap();
+            assert_eq!(u.to_bits(), ul.0[b].to_bits());
+            for i in 0..24 {
+                assert_eq!(f[i].to_bits(), fl[i].0[b].to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn bad_input_is_refused() {
+        let two = ProgramSpec {
+            n_inputs: 2,
+            ops: vec![Op::Input(0), Op::Input(1), Op::Mul(0, 1)],
+            output: 2,
+        };
+        assert!(Wave::new(&[8], &two, (0..8).collect()).is_err());
+        assert!(Wave::new(&[8], &quartic_and_sine(), vec![0; 8]).is_err());
+        assert!(Wave::new(&[8], &quartic_and_sine(), (0..7).collect()).is_err());
+        assert!(Wave::new(&[7], &quartic_and_sine(), (0..7).collect()).is_err());
+    }
+}

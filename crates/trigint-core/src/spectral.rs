@@ -1,0 +1,372 @@
+//! Real Fourier coordinates of a periodic grid: the coordinate map of the wave equation.
+//!
+//! A real field u on the grid x_k = 2πk/n (per axis, n even, d = 1, 2, 3 axes, N points in
+//! all) has normalized Fourier coefficients û_j = FFT(u)_j / N with û_{−j} = conj(û_j). Its
+//! real coordinates q, N of them, are
+//!
+//! * for a self-conjugate wavevector (j ≡ −j, every component 0 or n/2): q = û_j, real;
+//! * for a pair {j, −j}: (a, b) with û_j = (a − i b)/√2 for the pair's representative j.
+//!
+//! Then mean_x u² = |q|² and u = S q with SᵀS = N·I: the grid is an orthogonal change of
+//! coordinates up to the factor √N, and q'' + Ω²q = −∇U(q) with Ω = diag(ω_j) is the
+//! spectral semi-discretization of u_tt = Δu − ρu − V'(u) for U(q) = mean_x V(u)
+//! (Cohen, Hairer, Lubich, Numer. Math. 110 (2008), §2).
+//!
+//! The two transforms: u = S q is an inverse complex FFT along the first d − 1 axes of the
+//! half spectrum and a complex-to-real FFT along the last; Sᵀw is the forward pair
+//! (real-to-complex along the last axis, then complex), read at the representatives:
+//! (Sᵀw)_a = √2 Re W_j, (Sᵀw)_b = −√2 Im W_j, (Sᵀw)_q = Re W_j for a self-conjugate j.
+
+use std::sync::Arc;
+
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rustfft::num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+
+use crate::error::{CoreError, CoreResult};
+
+/// Largest grid (points in all): a 3-D 256³ grid.
+pub const MAX_POINTS: usize = 1 << 24;
+
+/// Which number of a mode a coordinate is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    /// The real coefficient of a self-conjugate wavevector.
+    Real,
+    /// a of a pair: û_j = (a − i b)/√2.
+    Cos,
+    /// b of a pair.
+    Sin,
+}
+
+/// One real Fourier coordinate: where its mode sits in the half spectrum.
+#[derive(Debug, Clone, Copy)]
+pub struct Slot {
+    /// Flat index of the representative j in the half spectrum.
+    pub at: usize,
+    /// Flat index of −j when it is in the half spectrum too (the planes of last index 0 and
+    /// n/2), else `usize::MAX`.
+    pub mirror: usize,
+    pub part: Part,
+}
+
+/// The real Fourier coordinates of one grid shape, with the FFT plans of its two transforms.
+pub struct Spectral {
+    shape: Vec<usize>,
+    /// The half spectrum's shape: `shape` with its last entry n/2 + 1.
+    half: Vec<usize>,
+    points: usize,
+    slots: Vec<Slot>,
+    /// The wavevector of each coordinate (signed FFT frequencies, d per coordinate).
+    wavevectors: Vec<i64>,
+    r2c: Arc<dyn RealToComplex<f64>>,
+    c2r: Arc<dyn ComplexToReal<f64>>,
+    /// Forward and inverse complex FFTs of the first d − 1 axes.
+    forward: Vec<Arc<dyn Fft<f64>>>,
+    inverse: Vec<Arc<dyn Fft<f64>>>,
+}
+
+impl std::fmt::Debug for Spectral {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Spectral({:?})", self.shape)
+    }
+}
+
+/// Scratch of the two transforms (complex half spectrum and FFT scratch).
+pub struct SpectralWorkspace {
+    half: Vec<Complex64>,
+    line: Vec<Complex64>,
+    scratch: Vec<Complex64>,
+}
+
+/// The signed FFT frequency of index k on an axis of n points.
+fn frequency(k: usize, n: usize) -> i64 {
+    if k <= n / 2 {
+        k as i64
+    } else {
+        k as i64 - n as i64
+    }
+}
+
+impl Spectral {
+    /// The coordinates of a grid of `shape` points per axis (1 to 3 axes, each even and ≥ 2).
+    pub fn new(shape: &[usize]) -> CoreResult<Self> {
+        let bad = |reason: String| Err(CoreError::invalid("grid", reason));
+        if shape.is_empty() || shape.len() > 3 {
+            return bad(format!("1 to 3 axes, got {}", shape.len()));
+        }
+        if let Some(&n) = shape.iter().find(|&&n| n < 2 || n % 2 != 0) {
+            return bad(format!(
+                "points per axis must be even and at least 2, got {n} in {shape:?}"
+            ));
+        }
+        let points = shape
+            .iter()
+            .try_fold(1usize, |a, &n| a.checked_mul(n))
+            .filter(|&p| p <= MAX_POINTS);
+        let Some(points) = points else {
+            return bad(format!(
+                "{shape:?} has more than {MAX_POINTS} points (256^3), the largest grid allowed"
+            ));
+        };
+        let d = shape.len();
+        let last = shape[d - 1];
+        let mut half = shape.to_vec();
+        half[d - 1] = last / 2 + 1;
+        let half_len: usize = half.iter().product();
+        // The multi-index of a flat half-spectrum index, and the flat index of its mirror −j.
+        let index = |mut h: usize| {
+            let mut idx = [0usize; 3];
+            for a in (0..d).rev() {
+                idx[a] = h % half[a];
+                h /= half[a];
+            }
+            idx
+        };
+        let flat = |idx: &[usize; 3]| (0..d).fold(0, |acc, a| acc * half[a] + idx[a]);
+        let mut slots = Vec::with_capacity(points);
+        let mut wavevectors = Vec::with_capacity(points * d);
+        for h in 0..half_len {
+            let idx = index(h);
+            let k = idx[d - 1];
+            let mut j = [0i64; 3];
+            for a in 0..d {
+                j[a] = frequency(idx[a], shape[a]);
+            }
+            let mut push = |part: Part, mirror: usize| {
+                slots.push(Slot {
+                    at: h,
+                    mirror,
+                    part,
+                });
+                wavevectors.extend_from_slice(&j[..d]);
+            };
+            if k != 0 && k != last / 2 {
+                push(Part::Cos, usize::MAX);
+                push(Part::Sin, usize::MAX);
+                continue;
+            }
+            let mut m = idx;
+            for a in 0..d - 1 {
+                m[a] = (shape[a] - idx[a]) % shape[a];
+            }
+            let mh = flat(&m);
+            if mh == h {
+                push(Part::Real, usize::MAX);
+            } else if mh > h {
+                push(Part::Cos, mh);
+                push(Part::Sin, mh);
+            }
+        }
+        debug_assert_eq!(slots.len(), points);
+        let mut real = RealFftPlanner::<f64>::new();
+        let mut complex = FftPlanner::<f64>::new();
+        Ok(Spectral {
+            r2c: real.plan_fft_forward(last),
+            c2r: real.plan_fft_inverse(last),
+            forward: shape[..d - 1]
+                .iter()
+                .map(|&n| complex.plan_fft_forward(n))
+                .collect(),
+            inverse: shape[..d - 1]
+                .iter()
+                .map(|&n| complex.plan_fft_inverse(n))
+                .collect(),
+            shape: shape.to_vec(),
+            half,
+            points,
+            slots,
+            wavevectors,
+        })
+    }
+
+    /// Grid points N (= the number of coordinates).
+    pub fn points(&self) -> usize {
+        self.points
+    }
+
+    pub fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+
+    /// Where each coordinate's mode sits.
+    pub fn slots(&self) -> &[Slot] {
+        &self.slots
+    }
+
+    /// The wavevector of each coordinate, d numbers per coordinate.
+    pub fn wavevectors(&self) -> &[i64] {
+        &self.wavevectors
+    }
+
+    pub fn workspace(&self) -> SpectralWorkspace {
+        let longest = self.shape.iter().copied().max().unwrap_or(1);
+        let scratch = [
+            self.r2c.get_scratch_len(),
+            self.c2r.get_scratch_len(),
+            self.forward
+                .iter()
+                .chain(&self.inverse)
+                .map(|f| f.get_inplace_scratch_len())
+                .max()
+                .unwrap_or(0),
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+        SpectralWorkspace {
+            half: vec![Complex64::default(); self.half.iter().product()],
+            line: vec![Complex64::default(); longest],
+            scratch: vec![Complex64::default(); scratch],
+        }
+    }
+
+    /// The complex FFT of every line of the half spectrum along `axis` (< d − 1), in place.
+    fn along_axis(&self, axis: usize, fft: &dyn Fft<f64>, ws: &mut SpectralWorkspace) {
+        let n = self.half[axis];
+        let stride: usize = self.half[axis + 1..].iter().product();
+        let outer: usize = self.half[..axis].iter().product();
+        let line = &mut ws.line[..n];
+        for o in 0..outer {
+            for s in 0..stride {
+                let base = o * n * stride + s;
+                for (i, c) in line.iter_mut().enumerate() {
+                    *c = ws.half[base + i * stride];
+                }
+                fft.process_with_scratch(line, &mut ws.scratch);
+                for (i, c) in line.iter().enumerate() {
+                    ws.half[base + i * stride] = *c;
+                }
+            }
+        }
+    }
+
+    /// u = S q: the grid values (row-major, N of them) of the coordinates q.
+    pub fn to_grid(&self, q: &[f64], u: &mut [f64], ws: &mut SpectralWorkspace) {
+        debug_assert_eq!(q.len(), self.points);
+        let r = std::f64::consts::FRAC_1_SQRT_2;
+        for (i, s) in self.slots.iter().enumerate() {
+            match s.part {
+                Part::Real => ws.half[s.at] = Complex64::new(q[i], 0.0),
+                Part::Cos => {
+                    let c = Complex64::new(q[i] * r, -q[i + 1] * r);
+                    ws.half[s.at] = c;
+                    if s.mirror != usize::MAX {
+                        ws.half[s.mirror] = c.conj();
+                    }
+                }
+                Part::Sin => {}
+            }
+        }
+        let d = self.shape.len();
+        for a in 0..d - 1 {
+            self.along_axis(a, self.inverse[a].as_ref(), ws);
+        }
+        let hl = self.half[d - 1];
+        let last = self.shape[d - 1];
+        for (row, out) in ws.half.chunks_exact_mut(hl).zip(u.chunks_exact_mut(last)) {
+            // The first and last entries of each row are real up to rounding (the mirror
+            // symmetry of the planes); the real transform takes them as real.
+            row[0].im = 0.0;
+            row[hl - 1].im = 0.0;
+            self.c2r
+                .process_with_scratch(row, out, &mut ws.scratch)
+                .expect("c2r of a row with real end points");
+        }
+    }
+
+    /// out = scale · Sᵀ w for grid values w (row-major, N of them). `w` is used as scratch.
+    pub fn transpose(
+        &self,
+        w: &mut [f64],
+        out: &mut [f64],
+        scale: f64,
+        ws: &mut SpectralWorkspace,
+    ) {
+        let d = self.shape.len();
+        let hl = self.half[d - 1];
+        let last = self.shape[d - 1];
+        for (row, input) in ws.half.chunks_exact_mut(hl).zip(w.chunks_exact_mut(last)) {
+            self.r2c
+                .process_with_scratch(input, row, &mut ws.scratch)
+                .expect("r2c of a row");
+        }
+        for a in 0..d - 1 {
+            self.along_axis(a, self.forward[a].as_ref(), ws);
+        }
+        let s2 = std::f64::consts::SQRT_2 * scale;
+        for (i, s) in self.slots.iter().enumerate() {
+            let c = ws.half[s.at];
+            out[i] = match s.part {
+                Part::Real => c.re * scale,
+                Part::Cos => c.re * s2,
+                Part::Sin => -c.im * s2,
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid_values(shape: &[usize], seed: f64) -> Vec<f64> {
+        let n: usize = shape.iter().product();
+        (0..n)
+            .map(|k| ((k as f64 + 1.0) * seed).sin() + 0.3 * ((k * k) as f64 * 0.01).cos())
+            .collect()
+    }
+
+    #[test]
+    fn the_map_is_orthogonal_up_to_the_number_of_points() {
+        for shape in [vec![8], vec![2], vec![6, 4], vec![4, 2, 6], vec![2, 2]] {
+            let s = Spectral::new(&shape).unwrap();
+            let n = s.points();
+            let mut ws = s.workspace();
+            let u = grid_values(&shape, 0.7);
+            // q = Sᵀu / N, then S q = u: the inverse.
+            let mut q = vec![0.0; n];
+            s.transpose(&mut u.clone(), &mut q, 1.0 / n as f64, &mut ws);
+            let mut back = vec![0.0; n];
+            s.to_grid(&q, &mut back, &mut ws);
+            for k in 0..n {
+                assert!((back[k] - u[k]).abs() < 1e-13, "{shape:?} point {k}");
+            }
+            // mean_x u² = |q|².
+            let mean: f64 = u.iter().map(|x| x * x).sum::<f64>() / n as f64;
+            let norm: f64 = q.iter().map(|x| x * x).sum();
+            assert!((mean - norm).abs() < 1e-13 * mean, "{shape:?}");
+        }
+    }
+
+    #[test]
+    fn a_coordinate_is_its_cosine_or_sine_on_the_grid() {
+        // 1-D, n = 8: the pair of j = 3 is √2 cos(3x), √2 sin(3x); j = 4 is cos(4x) = ±1.
+        let s = Spectral::new(&[8]).unwrap();
+        let mut ws = s.workspace();
+        for (i, slot) in s.slots().iter().enumerate() {
+            let j = s.wavevectors()[i] as f64;
+            let mut e = vec![0.0; 8];
+            e[i] = 1.0;
+            let mut u = vec![0.0; 8];
+            s.to_grid(&e, &mut u, &mut ws);
+            for k in 0..8 {
+                let x = 2.0 * std::f64::consts::PI * k as f64 / 8.0;
+                let want = match slot.part {
+                    Part::Real => (j * x).cos(),
+                    Part::Cos => 2f64.sqrt() * (j * x).cos(),
+                    Part::Sin => 2f64.sqrt() * (j * x).sin(),
+                };
+                assert!((u[k] - want).abs() < 1e-14, "coordinate {i} point {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_grids_are_refused() {
+        for shape in [vec![], vec![3], vec![0], vec![4, 5], vec![2, 2, 2, 2]] {
+            assert!(Spectral::new(&shape).is_err(), "{shape:?}");
+        }
+        assert!(Spectral::new(&[1 << 13, 1 << 12]).is_err());
+    }
+}

@@ -1,0 +1,285 @@
+"""Semilinear wave equations on the torus, spectrally discretized: u_tt = Δu − ρu − V'(u) on
+[0, 2π)^d, d = 1, 2, 3, collocated on the grid x_k = 2πk/n per axis.
+
+In real Fourier coordinates q (N = n^d of them, see :class:`trigint._core.FourierGrid`) this is
+q'' + Ω²q = −∇U(q) with Ω = diag(ω_j), ω_j = √(ρ + |j|²) and U(q) = mean_x V(u): the paper's
+problem class, so every method of trigint steps it unchanged (Cohen, Hairer, Lubich,
+Numer. Math. 110 (2008) 113–143, §2). The core evaluates the force with two FFTs and V by
+machine code; states go in and come out as grid values.
+
+Each Fourier mode (a conjugate pair {j, −j}, or a self-conjugate j) is one block of the
+problem, so its energy is streamed like the paper's I_j, and the harmonic action of the mode is
+that energy over ω_j: J_j = I_j + I_{−j} = (ω_j|û_j|² + |v̂_j|²/ω_j)/2 summed over the pair (a
+self-conjugate mode has its own I_j), with û = FFT(u)/N.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+import xarray as xr
+
+from . import _check, _core, _tape
+from .potentials import Potential, PythonPotential
+from .problem import OscillatoryProblem
+
+#: modes kept in ``sol.energies["action"]`` by default: all of them up to this many
+ALL_MODES_UP_TO = 256
+
+
+class FourierMap:
+    """Grid values (N per state, row-major over the grid) ⇄ the problem's Fourier coordinates
+    (the core's order): ``to_core`` is q = Sᵀu/N, ``to_user`` is u = S q."""
+
+    def __init__(self, grid, order: np.ndarray):
+        self.grid = grid
+        self.order = order
+
+    def to_core(self, x: np.ndarray) -> np.ndarray:
+        rows = np.ascontiguousarray(np.asarray(x, dtype=float).reshape(-1, x.shape[-1]))
+        return np.ascontiguousarray(self.grid.from_grid(rows)[:, self.order]).reshape(x.shape)
+
+    def to_user(self, x: np.ndarray) -> np.ndarray:
+        rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
+        canonical = np.empty_like(rows)
+        canonical[:, self.order] = rows
+        return self.grid.to_grid(np.ascontiguousarray(canonical)).reshape(x.shape)
+
+
+class WavePotential(Potential):
+    """U(q) = mean_x V(u) of the wave problem, in its Fourier coordinates (compiled V)."""
+
+    def __init__(self, shape: tuple[int, ...], tape: dict, order: np.ndarray, text: str):
+        self.shape, self.order, self.text = shape, order, text
+        self.dim = int(np.prod(shape))
+        self._tape = tape
+
+    def _spec(self, n: int) -> dict:
+        return {"kind": "wave", "shape": list(self.shape), "v": self._tape,
+                "order": [int(i) for i in self.order]}
+
+    def __repr__(self) -> str:
+        return f"WavePotential(V(u) = {self.text}, grid {self.shape})"
+
+
+def _python_potential(v: Callable, dv: Callable, fmap: FourierMap) -> PythonPotential:
+    """U and ∇U = (1/N) Sᵀ V'(u) for callables V, V' on grid arrays, through the core's FFTs."""
+
+    def grid_rows(q):
+        return fmap.to_user(np.ascontiguousarray(q))
+
+    def value(q):
+        u = grid_rows(q)
+        return np.asarray(v(u), dtype=float).reshape(u.shape).mean(axis=1)
+
+    def gradient(q):
+        u = grid_rows(q)
+        return fmap.to_core(np.asarray(dv(u), dtype=float).reshape(u.shape))
+
+    return PythonPotential(value, gradient, vectorized=True)
+
+
+class WaveProblem(OscillatoryProblem):
+    """The spectral semi-discretization of u_tt = Δu − ρu − V'(u) on the torus (build it with
+    :func:`trigint.problems.wave`).
+
+    Attributes
+    ----------
+    shape : tuple of int
+        Grid points per axis.
+    grid : list of arrays
+        The grid x_k = 2πk/n of each axis.
+    rho : float
+        ρ.
+    modes : array of int, shape (ℓ, d)
+        The wavevector j of each block (the representative of a pair {j, −j}).
+    mode_frequencies : array, shape (ℓ,)
+        ω_j of each block.
+    action_modes : array of int
+        The blocks (0-based) whose actions ``sol.energies["action"]`` holds.
+    """
+
+    def __init__(self, shape: tuple[int, ...], rho: float, potential, params: Mapping | None = None,
+                 variable: str = "u", modes=None):
+        self.shape = shape
+        self.rho = rho
+        self.fourier_grid = _core.FourierGrid(list(shape))
+        j = np.asarray(self.fourier_grid.wavevectors())
+        parts = np.asarray(self.fourier_grid.parts())
+        omega = np.sqrt(rho + np.sum(j.astype(float) ** 2, axis=1))
+        # one block per mode, modes in order of frequency; a pair's two coordinates together
+        first = parts != 2
+        mode_of = np.cumsum(first) - 1
+        mode_omega = omega[first]
+        rank = np.empty(mode_omega.size, dtype=np.int64)
+        rank[np.argsort(mode_omega, kind="stable")] = np.arange(mode_omega.size)
+        slow = mode_omega == 0.0
+        label = rank - np.count_nonzero(slow) + 1
+        label[slow] = 0
+        blocks_canonical = label[mode_of]
+        order = np.lexsort((np.arange(j.shape[0]), blocks_canonical))
+        self.fourier_map = FourierMap(self.fourier_grid, order)
+        self.coordinate_map = self.fourier_map
+        self.stiffness = self.basis = self.frequencies_found = None
+        self.path = "diagonal"
+        self.omega = omega[order]
+        self.blocks = blocks_canonical[order]
+        self._n = self.omega.size
+        self.omega.setflags(write=False)
+        self.blocks.setflags(write=False)
+        starts = np.flatnonzero(np.r_[True, self.blocks[1:] != self.blocks[:-1]])
+        starts = starts[self.blocks[starts] > 0]
+        self.modes = j[order][starts]
+        self.mode_frequencies = self.omega[starts]
+        self._parts = parts[order]
+        self.potential = self._potential(potential, params, variable, order)
+        self.action_modes = self._action_modes(modes)
+
+    def _potential(self, potential, params, variable, order):
+        if isinstance(potential, tuple) and len(potential) == 2 and all(callable(f) for f in potential):
+            return _python_potential(potential[0], potential[1], self.fourier_map)
+        if callable(potential):
+            raise TypeError("potential: a Python V needs its derivative too: give (V, dV), two callables on grid "
+                            "arrays, or V as a string or SymPy expression in u")
+        (var,) = _tape.symbols([variable], "variable")
+        params = _tape.parameters(params)
+        expr = _tape.parse(potential, [str(var), *params], "potential")
+        tape = _tape.tape(expr, [var], params, "potential", "variable")
+        return WavePotential(self.shape, tape, order, str(expr))
+
+    def _action_modes(self, modes) -> np.ndarray:
+        n_modes = self.modes.shape[0]
+        if modes is None:
+            if n_modes <= ALL_MODES_UP_TO:
+                return np.arange(n_modes)
+            return np.flatnonzero(np.max(np.abs(self.modes), axis=1) <= 8)
+        wanted = np.asarray(modes, dtype=np.int64).reshape(-1, len(self.shape))
+        found = []
+        for w in wanted:
+            hit = np.flatnonzero(np.all(self.modes == w, axis=1) | np.all(self.modes == -w, axis=1))
+            if hit.size == 0:
+                raise ValueError(f"modes: {w.tolist()} is not a wavevector of the grid {self.shape} "
+                                 f"(or its frequency is 0, which has no action)")
+            found.append(int(hit[0]))
+        return np.array(sorted(set(found)), dtype=np.int64)
+
+    @property
+    def grid(self) -> list[np.ndarray]:
+        """The grid points x_k = 2πk/n of each axis."""
+        return [2 * np.pi * np.arange(n) / n for n in self.shape]
+
+    @property
+    def points(self) -> int:
+        """N, the number of grid points (= coordinates)."""
+        return self._n
+
+    def as_state(self, x, name: str) -> np.ndarray:
+        """Grid values of shape (…, *shape) as flat states (…, N); flat ones pass unchanged."""
+        a = np.asarray(x)
+        d = len(self.shape)
+        if a.ndim >= d and a.shape[a.ndim - d:] == self.shape:
+            return a.reshape(*a.shape[: a.ndim - d], self._n)
+        if a.ndim >= 1 and a.shape[-1] == self._n:
+            return a
+        raise ValueError(f"{name}: expected grid values of shape {self.shape} (or {self._n} flat values), "
+                         f"got shape {a.shape}")
+
+    def fourier(self, u) -> np.ndarray:
+        """The real Fourier coordinates (the problem's order) of grid values u (…, N)."""
+        return self.fourier_map.to_core(np.asarray(self.as_state(u, "u"), dtype=float))
+
+    def momentum(self, u, v) -> np.ndarray:
+        """K = −mean_x(v ∇u) (one component per axis, last axis of the result) of grid values
+        u, v of shape (…, N), the derivative spectral (the Nyquist wavenumber's derivative 0)."""
+        q, p = self.fourier(u), self.fourier(v)
+        out = []
+        cos = np.flatnonzero(self._parts == 1)
+        for axis, n in enumerate(self.shape):
+            jm = self.fourier_map_wavevectors[cos, axis].astype(float)
+            jm[np.abs(jm) == n // 2] = 0.0
+            a, b, c, d = q[..., cos], q[..., cos + 1], p[..., cos], p[..., cos + 1]
+            out.append(np.sum(jm * (a * d - b * c), axis=-1))
+        return np.stack(out, axis=-1)
+
+    @property
+    def fourier_map_wavevectors(self) -> np.ndarray:
+        return np.asarray(self.fourier_grid.wavevectors())[self.fourier_map.order]
+
+    def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
+                       coords: dict, attrs: dict) -> xr.Dataset:
+        """The wave's energies at the samples: H (``total``), H_ω, ``slow``, H*_ω, the
+        ``momentum`` (over ``axis``) and the ``action`` J_j over (t, mode) for `action_modes`."""
+        whole = {name: ("t", energies[:, k]) for k, name in enumerate(names) if not name[-1].isdigit()}
+        first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
+        blocks = energies[:, first:][:, self.action_modes]
+        actions = blocks / self.mode_frequencies[self.action_modes]
+        d = len(self.shape)
+        mode_coords = {"mode": np.arange(self.action_modes.size),
+                       "wavevector": (("mode", "axis"), self.modes[self.action_modes].reshape(-1, d)),
+                       "omega": ("mode", self.mode_frequencies[self.action_modes])}
+        data = {**whole, "momentum": (("t", "axis"), self.momentum(q, p)),
+                "action": (("t", "mode"), actions)}
+        return xr.Dataset(data, coords={**coords, **mode_coords, "axis": np.arange(d)}, attrs=attrs)
+
+    def __repr__(self) -> str:
+        return (f"WaveProblem(grid {self.shape}, rho={self.rho:g}, {self.modes.shape[0]} modes, "
+                f"omega from {self.mode_frequencies.min():.4g} to {self.mode_frequencies.max():.4g}, "
+                f"potential={self.potential!r})")
+
+
+def wave(n, rho: float = 1.0, potential="0", *, params: Mapping | None = None, variable: str = "u",
+         modes=None) -> WaveProblem:
+    """The semilinear wave equation u_tt = Δu − ρu − V'(u) on [0, 2π)^d, spectrally discretized.
+
+    Parameters
+    ----------
+    n : int or tuple of int
+        Grid points: an int for d = 1, a tuple of 2 or 3 for d = 2, 3; each even and ≥ 2.
+    rho : float
+        ρ ≥ 0 (ρ = 0: the mean of u is a slow coordinate).
+    potential : str, sympy.Expr or (callable, callable)
+        V(u) as an expression in `variable` (and the names in `params`), compiled to machine
+        code; or a pair (V, V') of Python functions of grid arrays (slower: a call per step).
+    params : dict of str → float, optional
+        Values of the other symbols of `potential`.
+    variable : str
+        The name of u in `potential` (default ``"u"``).
+    modes : sequence of wavevectors, optional
+        The modes whose actions ``sol.energies["action"]`` holds: ints in 1-D, d-tuples
+        otherwise. Default: all modes up to 256 of them, else those with every |j_i| ≤ 8. The
+        energies of all modes are streamed either way (their maximal deviations in
+        ``sol.max_deviation``).
+
+    Examples
+    --------
+    A weakly nonlinear Klein–Gordon equation (Cohen, Hairer, Lubich 2008, §6):
+
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.wave(32, rho=0.5, potential="u**3 / 3")  # V'(u) = u²: u_tt = u_xx − ρu − u²
+    >>> x, = prob.grid
+    >>> u0 = 0.01 * (x - np.pi)**2 * np.sin(x)**2; v0 = 0.01 * np.sin(x)
+    >>> sol = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=2000, save_every=1000)
+    >>> sol.q.shape  # grid values at t = 0, 50, 100
+    (3, 32)
+    >>> bool(abs(sol.max_deviation["total"]) < 1e-4 * sol.initial_energies["total"])
+    True
+    >>> sol.energies["action"].dims
+    ('t', 'mode')
+    """
+    shape = _shape(n)
+    rho = _check.real(rho, "rho", nonneg=True)
+    return WaveProblem(shape, rho, potential, params, variable, modes)
+
+
+def _shape(n) -> tuple[int, ...]:
+    values = (n,) if np.ndim(n) == 0 else tuple(n)
+    if not 1 <= len(values) <= 3:
+        raise ValueError(f"n: expected an int (1-D) or a tuple of 2 or 3 ints, got {n!r}")
+    out = []
+    for v in values:
+        k = _check.integer(v, "n", low=2)
+        if k % 2:
+            raise ValueError(f"n: grid points per axis must be even (the Nyquist mode is then real), got {k}")
+        out.append(k)
+    return tuple(out)
