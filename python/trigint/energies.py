@@ -116,7 +116,11 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         # the quadratic forms in the modal coordinates x = Qᵀq: |P_j q|² = |x_j|²
         q2, p2 = q2 @ problem.basis, p2 @ problem.basis
     per_coordinate = 0.5 * (p2**2 + w["omega2"] * q2**2)
-    blocks = [per_coordinate[:, w["block"] == j].sum(axis=1) for j in range(w["n_blocks"] + 1)]
+    order = np.argsort(w["block"], kind="stable")
+    starts = np.searchsorted(w["block"][order], np.arange(w["n_blocks"] + 1))
+    sums = np.add.reduceat(per_coordinate[:, order], starts, axis=1) if per_coordinate.shape[1] else per_coordinate
+    present = np.bincount(w["block"], minlength=w["n_blocks"] + 1) > 0
+    blocks = [sums[:, j] if present[j] else np.zeros(q2.shape[0]) for j in range(w["n_blocks"] + 1)]
     oscillatory = np.sum(blocks[1:], axis=0) if w["n_blocks"] else np.zeros(q2.shape[0])
     slow = blocks[0] + problem.potential.value(q_user)
     data = dict(total=oscillatory + slow, oscillatory=oscillatory, slow=slow)

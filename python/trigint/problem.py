@@ -154,13 +154,32 @@ class OscillatoryProblem:
         return self._n
 
     def as_state(self, x, name: str):
-        """A state as the problem takes it (here: unchanged; a wave problem flattens its grid
-        values)."""
+        """A state as the kernels take it: here unchanged (a wave problem flattens grid values).
+
+        Parameters
+        ----------
+        x : array
+            One state (n,) or a batch of them.
+        name : str
+            The argument's name, for error messages.
+        """
         return x
 
     def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
                        coords: dict, attrs: dict):
-        """The energies at the samples as an xarray Dataset, one variable per channel over ``t``."""
+        """The energies at the samples as an xarray Dataset, one variable per channel over ``t``.
+
+        Parameters
+        ----------
+        names : list of str
+            The channels, in the order of the columns of `energies`.
+        energies : array, shape (samples, channels)
+            The streamed energies at the samples.
+        q, p : array, shape (samples, n)
+            The sampled states (a wave problem computes its momentum from them).
+        coords, attrs : dict
+            The Dataset's coordinates (``t``, ``step``) and attributes.
+        """
         import xarray as xr
 
         return xr.Dataset({name: ("t", energies[:, k]) for k, name in enumerate(names)}, coords=coords,
@@ -186,7 +205,7 @@ class OscillatoryProblem:
         self.require_spectrum("frequencies")
         if self.frequencies_found is not None:
             return self.frequencies_found
-        counts = np.array([np.count_nonzero(self.blocks == j) for j in range(1, self.n_blocks + 1)], dtype=np.int64)
+        counts = np.bincount(self.blocks, minlength=self.n_blocks + 1)[1:].astype(np.int64)
         return Frequencies(self.block_frequencies, counts, int(np.count_nonzero(self.blocks == 0)))
 
     @property
@@ -198,7 +217,8 @@ class OscillatoryProblem:
     def block_frequencies(self) -> np.ndarray:
         """The frequency ω_j of each block j = 1 … ℓ."""
         self.require_spectrum("block_frequencies")
-        return np.array([self.omega[np.flatnonzero(self.blocks == j)[0]] for j in range(1, self.n_blocks + 1)])
+        labels, first = np.unique(self.blocks, return_index=True)
+        return np.asarray(self.omega[first[labels > 0]], dtype=float)
 
     @property
     def epsilon(self) -> float:
