@@ -15,7 +15,6 @@ import numpy as np
 from . import _check
 from .potentials import FPUPotential, PolynomialPotential, fpu_original_basis
 from .problem import OscillatoryProblem
-from .wave import wave
 
 
 def _positive(x, name: str) -> float:

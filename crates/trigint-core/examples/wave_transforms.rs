@@ -64,5 +64,8 @@ fn raw(n: usize) {
         s[n / 2].im = 0.0;
         i.process_with_scratch(&mut s, &mut x, &mut scr2).unwrap();
     }
-    println!("raw r2c + c2r: {:.1} us", t.elapsed().as_secs_f64() / reps as f64 * 1e6);
+    println!(
+        "raw r2c + c2r: {:.1} us",
+        t.elapsed().as_secs_f64() / reps as f64 * 1e6
+    );
 }
