@@ -15,6 +15,7 @@ import numpy as np
 from . import _check
 from .potentials import FPUPotential, PolynomialPotential, fpu_original_basis
 from .problem import OscillatoryProblem
+from .wave import wave as wave  # re-exported: ti.problems.wave
 
 
 def _positive(x, name: str) -> float:
