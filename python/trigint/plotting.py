@@ -136,7 +136,7 @@ def figure(ds):
     """
     kind = ds.attrs["kind"]
     return {"families": _plot_families, "perturbed": _plot_perturbed, "scan": _plot_scan,
-            "methods": _plot_methods}[kind](ds)
+            "methods": _plot_methods, "wave": _plot_wave}[kind](ds)
 
 
 #: the page width (inches) at which the figures' fonts have their nominal size: a figure
@@ -285,6 +285,25 @@ def _plot_methods(ds):
         ax.set_xlim(0, ds.attrs["t_end"])
         ax.legend(fontsize=7, frameon=False)
     axes[-1, 0].set_xlabel("t")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    _caption(fig, ds)
+    return fig
+
+
+def _plot_wave(ds):
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    h = ds.h.values
+    for x in h[np.isfinite(ds.resonance_distance.values)]:
+        ax.axvline(x, color="tab:red", lw=0.5, alpha=0.5)
+    ax.plot(h, ds.energy_deviation.values, color="black", lw=0.8, label="energy H")
+    ax.plot(h, ds.action_deviation.values, color="tab:blue", lw=0.6, alpha=0.7, label="actions, 6 lowest modes")
+    ax.set_yscale("log")
+    ax.set_xlabel("step size h")
+    ax.set_ylabel(f"max relative deviation, 0 ≤ t ≤ {ds.attrs['t_end']:,.0f}")
+    top = ax.secondary_xaxis("top", functions=(lambda v: v * ds.attrs["n"] / 2, lambda v: v * 2 / ds.attrs["n"]))
+    top.set_xlabel("CFL number hK")
+    ax.legend(fontsize=7, frameon=False, loc="upper left")
     fig.suptitle(ds.attrs["title"], fontsize=10)
     _caption(fig, ds)
     return fig

@@ -74,7 +74,8 @@ def measure(ds: xr.Dataset) -> list[Claim]:
     >>> all(c.passed for c in experiments.measure(ds))
     True
     """
-    return {"families": _families, "perturbed": _perturbed, "scan": _scan, "methods": _methods}[ds.attrs["kind"]](ds)
+    return {"families": _families, "perturbed": _perturbed, "scan": _scan, "methods": _methods,
+            "wave": _wave}[ds.attrs["kind"]](ds)
 
 
 def _slope_through_origin(t: np.ndarray, y: np.ndarray) -> float:
@@ -268,3 +269,26 @@ def _methods(ds: xr.Dataset) -> list[Claim]:
         out.append(Claim(fig, "max |deviation| of (A) / that of (B), worst ω", ratio, "≪ 1 (paper: scale 6e-5)",
                          "≤ 0.01", ratio <= 0.01))
     return out
+
+
+def _wave(ds: xr.Dataset) -> list[Claim]:
+    """Away from the flagged step sizes the energy error is O(h^order); the largest error of the
+    scan is a peak (peak_factor × the median) at a flagged step size."""
+    from .wave_runner import flagged
+
+    fig, a = ds.attrs["figure"], ds.attrs
+    near = flagged(ds)
+    h, dev = ds.h.values, ds.energy_deviation.values
+    calm = ~near & np.isfinite(dev) & (dev > 0)
+    slope = float(np.polyfit(np.log(h[calm]), np.log(dev[calm]), 1)[0]) if np.count_nonzero(calm) > 2 else np.nan
+    finite = np.where(np.isfinite(dev), dev, np.inf)
+    top = int(np.argmax(finite))
+    factor = float(finite[top] / np.nanmedian(dev))
+    return [
+        Claim(fig, "energy error O(h^2) at the step sizes the resonance tool does not flag", slope,
+              f"exponent {a['order']:g}", f"± {a['order_tolerance']:g}",
+              bool(abs(slope - a["order"]) <= a["order_tolerance"])),
+        Claim(fig, "the largest energy error of the scan is a resonance peak the tool flags",
+              factor, f"≥ {a['peak_factor']:g} × the median, at a flagged h (h = {h[top]:.4f})",
+              "flagged: " + ("yes" if near[top] else "no"), bool(near[top] and factor >= a["peak_factor"])),
+    ]

@@ -148,7 +148,8 @@ POSITIVE = Float(positive=True)
 NONNEG = Float(low=0.0)
 
 COMMON = {
-    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods")), "title": Str(), "caption": Str(),
+    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods", "wave")), "title": Str(),
+    "caption": Str(),
     "seed": Int(0, 10**6), "energy": Str(ENERGIES), "samples": Int(2, 10**7),
 }
 FPU = {"problem": Str(("fpu",)), "m": Int(1, 10**4), "omega": POSITIVE, "method": Method()}
@@ -180,12 +181,19 @@ KEYS = {
         "methods": List(Method()), "omegas": List(POSITIVE), "t_end": POSITIVE, "growth_exponent": Float(),
         "tolerance": POSITIVE, "ratio_max": POSITIVE,
     },
+    "wave": {
+        **COMMON, "problem": Str(("wave",)), "n": Int(2, 2**16), "rho": NONNEG, "potential": Str(),
+        "amplitude": POSITIVE, "method": Method(), "h_min": POSITIVE, "h_max": POSITIVE, "points": Int(2, 10**5),
+        "t_end": POSITIVE, "tolerance": POSITIVE, "order": Float(), "order_tolerance": POSITIVE,
+        "peak_factor": POSITIVE,
+    },
 }
 REQUIRED = {
     "families": ("kind", "problem", "panel"),
     "perturbed": ("kind", "problem", "omega"),
     "scan": ("kind", "problem", "omega", "t_end", "centres"),
     "methods": ("kind", "problem", "methods", "omegas", "t_end"),
+    "wave": ("kind", "problem", "n", "h_min", "h_max", "t_end"),
 }
 TOP_LEVEL = ("figure", "panel", "claims", "quick")
 

@@ -43,8 +43,8 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     """The near-resonant mode combinations of a wave problem at step size h, nearest first.
 
     Checks every mode alone (|sin(hω_j)| < tolerance, hω_j ≥ π/2) and every triple j = k + l
-    among the `max_modes` lowest modes (|sin(½h(ω_j ± ω_k ± ω_l))| < tolerance for a sign
-    combination whose frequency sum is not exactly 0).
+    among the `max_modes` lowest modes (|sin(½h(ω_j ± ω_k ± ω_l))| < tolerance with
+    ½h|ω_j ± ω_k ± ω_l| ≥ π/2: near a non-zero multiple of π).
 
     Parameters
     ----------
@@ -89,18 +89,20 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
         for b in range(a, low):
             for sign_l in (1, -1):
                 j = (modes[a] + sign_l * modes[b] + shape // 2) % shape - shape // 2
-                c, _ = lookup(j)
+                c, key = lookup(j)
                 if c is None:
                     continue
                 for s1 in (1, -1):
                     for s2 in (1, -1):
                         combo = omega[c] + s1 * omega[a] + s2 * omega[b]
-                        if abs(combo) < 1e-12 * omega[c]:
-                            continue  # an exact (continuous) resonance, not a numerical one
+                        # near a non-zero multiple of π only: near 0 the combination is a
+                        # resonance of the equation itself, which every step size sees
+                        if abs(0.5 * h * combo) < np.pi / 2:
+                            continue
                         dist = abs(np.sin(0.5 * h * combo))
                         if dist < tolerance:
                             found.append(WaveResonance(
-                                (tuple(int(x) for x in j), tuple(int(x) for x in modes[a]),
+                                (key, tuple(int(x) for x in modes[a]),
                                  tuple(int(x) for x in sign_l * modes[b])), (1, s1, s2), float(combo), float(dist)))
     found.sort(key=lambda r: r.distance)
     return found
