@@ -215,8 +215,11 @@ class WaveProblem(OscillatoryProblem):
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
         d = len(self.shape)
+        j = self.modes[self.action_modes].reshape(-1, d)
+        # the wavenumber j in 1-D (|j| in 2-D/3-D), and the components as j0, j1, j2
         mode_coords = {"mode": np.arange(self.action_modes.size),
-                       "wavevector": (("mode", "axis"), self.modes[self.action_modes].reshape(-1, d)),
+                       "wavenumber": ("mode", j[:, 0] if d == 1 else np.sqrt(np.sum(j.astype(float) ** 2, axis=1))),
+                       **{f"j{a}": ("mode", j[:, a]) for a in range(d)},
                        "omega": ("mode", self.mode_frequencies[self.action_modes])}
         data = {**whole, "momentum": (("t", "axis"), self.momentum(q, p)),
                 "action": (("t", "mode"), actions)}

@@ -19,9 +19,26 @@ from .._check import real, step_size
 
 @dataclass(frozen=True)
 class WaveResonance:
-    """One near-resonant combination: ``modes`` (the wavevectors j, k, l with j = k + l, or
-    one mode j alone), the frequency combination ``combination`` (ω_j ± ω_k ± ω_l, or ω_j) and
-    ``distance`` = |sin(½h·combination)| (alone: |sin(hω_j)|)."""
+    """One near-resonant combination of a wave problem's modes at a step size.
+
+    Attributes
+    ----------
+    modes : tuple of tuple of int
+        The wavevectors (j, k, l) with j = k + l, or (j,) for a mode alone.
+    signs : tuple of int
+        The signs of ω_j, ω_k, ω_l in the combination ((1,) for a mode alone).
+    combination : float
+        ω_j ± ω_k ± ω_l, or ω_j for a mode alone.
+    distance : float
+        |sin(½h · combination)| for a triple, |sin(hω_j)| for a mode alone.
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> r = ti.resonance.wave_resonances(ti.problems.wave(16, rho=0.0), 3.14159 / 3)[0]
+    >>> r.modes, r.signs
+    (((3,),), (1,))
+    """
 
     modes: tuple
     signs: tuple
@@ -30,8 +47,17 @@ class WaveResonance:
 
 
 def cfl_number(problem, h: float) -> float:
-    """hK with K = the largest wavenumber |j|_∞ = n/2 of the grid.
+    """The CFL number hK, K = the largest wavenumber |j|_∞ = n/2 of the grid.
 
+    Parameters
+    ----------
+    problem : WaveProblem
+        From :func:`trigint.problems.wave`.
+    h : float
+        The step size.
+
+    Examples
+    --------
     >>> import trigint as ti
     >>> ti.resonance.cfl_number(ti.problems.wave(64), 0.05)
     1.6
@@ -104,5 +130,7 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
                             found.append(WaveResonance(
                                 (key, tuple(int(x) for x in modes[a]),
                                  tuple(int(x) for x in sign_l * modes[b])), (1, s1, s2), float(combo), float(dist)))
-    found.sort(key=lambda r: r.distance)
-    return found
+    # one entry per combination (the loops meet each triple from both of its summands)
+    unique = {(tuple(sorted(tuple(abs(c) for c in m) for m in r.modes)), round(abs(r.combination), 9)): r
+              for r in reversed(found)}
+    return sorted(unique.values(), key=lambda r: (r.distance, r.modes))
