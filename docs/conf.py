@@ -78,7 +78,8 @@ def _reproduction_page() -> None:
         "# Reproduction of the paper's figures\n",
         "Generated when these pages were built, by `trigint reproduce all` (the same as "
         "`make reproduce`): every figure of §4 of the paper at full resolution, and every claim the "
-        "paper makes about it, measured on the data with its tolerance. " + " ".join(summary) + "\n",
+        "paper makes about it, measured on the data with its tolerance; then a wave-equation "
+        "experiment beyond the paper (`wave1`), with its claims. " + " ".join(summary) + "\n",
         "Where the paper's statement had to be made precise to be measured, the claim's wording in "
         "the tables says how (Figure 3: the median over 9 realizations of the initial values where "
         "the deviation is a random walk; Figure 5: the growth rate fitted on the first quarter of "
@@ -87,7 +88,8 @@ def _reproduction_page() -> None:
     ]
     for fig, title in titles.items():
         rows = [line for line in report if line.startswith(f"| {fig} ")]
-        parts += [f"## {fig[:3].capitalize()}. {fig[3:]}: {title}\n", f"![{fig}](_generated/reproduction/{fig}.png)\n",
+        label = f"Fig. {fig[3:]}" if fig.startswith("fig") else f"Beyond the paper, {fig}"
+        parts += [f"## {label}: {title}\n", f"![{fig}](_generated/reproduction/{fig}.png)\n",
                   "\n".join(header + rows) + "\n"]
     bench = (HERE.parent / "benchmarks" / "results.md").read_text(encoding="utf-8")
     bench = bench.replace("](results.png)", "](../benchmarks/results.png)")
