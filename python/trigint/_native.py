@@ -20,9 +20,10 @@ from . import _core
 METHOD_ROWS: tuple[str, ...] = tuple(_core.METHOD_ROWS)
 
 
-def channel_names(n_blocks: int) -> list[str]:
-    """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks."""
-    return list(_core.channels(n_blocks))
+def channel_names(n_blocks: int, n_axes: int = 0) -> list[str]:
+    """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks and
+    `n_axes` per-axis channels."""
+    return list(_core.channels(n_blocks, n_axes))
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,8 @@ def core_layout(problem) -> CoreLayout:
         "omega2": np.ascontiguousarray(problem.omega[perm] ** 2),
         "n_slow": n_slow,
         "block_ends": ends,
+        # a bilinear invariant in the core's coordinates (a wave equation's momentum), or None
+        "pair_forms": problem.pair_forms,
     }
     # a stiffness matrix's modal coordinates come ordered (slow first, block by block): perm is
     # the identity and Q the whole map

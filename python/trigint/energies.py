@@ -14,16 +14,24 @@ from .methods import Method
 from .problem import OscillatoryProblem
 
 
-def energy_names(n_blocks: int) -> list[str]:
+def energy_names(n_blocks: int, n_axes: int = 0) -> list[str]:
     """Channel names in output order, from the core's channel table (``_core.CHANNELS``): total,
-    oscillatory, slow, modified_oscillatory, then oscillatory_1 … oscillatory_ℓ.
+    oscillatory, slow, modified_oscillatory, then oscillatory_1 … oscillatory_ℓ, then (a wave
+    equation's momentum, `n_axes` components) momentum_1 … momentum_d.
+
+    Parameters
+    ----------
+    n_blocks : int
+        ℓ, the problem's number of oscillatory blocks.
+    n_axes : int
+        The number of per-axis channels (0 unless the problem has a momentum).
 
     Examples
     --------
     >>> energy_names(2)
     ['total', 'oscillatory', 'slow', 'modified_oscillatory', 'oscillatory_1', 'oscillatory_2']
     """
-    return _native.channel_names(n_blocks)
+    return _native.channel_names(n_blocks, n_axes)
 
 
 def layout(problem: OscillatoryProblem, coefficients: Coefficients | None) -> dict:

@@ -118,7 +118,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
             raise TypeError(f"store: expected a folder path (a str or pathlib.Path), got {type(store).__name__}")
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
-    names = energy_names(problem.n_blocks)
+    names = energy_names(problem.n_blocks, problem.n_axes)
     args = core_arguments(problem)
     _check_sendable(client, problem.potential, args[0])
     # more threads than trajectories would only idle (the bits do not depend on the count)
@@ -208,7 +208,7 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     ref = float(np.max(problem.omega)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:
         raise ValueError("omega_ref: the problem has no oscillatory frequency; give omega_ref")
-    _check.choice(energy, "energy", energy_names(problem.n_blocks))
+    _check.choice(energy, "energy", energy_names(problem.n_blocks, problem.n_axes))
     ds = ensemble(problem, method, q0, p0, h=h_omega / ref, t_end=t_end, **kwargs)
     da = ds.max_deviation.sel(energy=energy).drop_vars("energy")
     da = da.rename(trajectory="h_omega").assign_coords(h_omega=h_omega, h=("h_omega", ds.h.values),

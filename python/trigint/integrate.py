@@ -45,7 +45,7 @@ NEAR_RESONANCE_SIN = 0.1
 
 def sample_bytes(problem, samples: int) -> int:
     """Memory of `samples` kept states: q, p, the energies and the step number of each."""
-    return samples * (2 * problem.dim + len(energy_names(problem.n_blocks))) * 8
+    return samples * (2 * problem.dim + len(energy_names(problem.n_blocks, problem.n_axes))) * 8
 
 
 def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
@@ -196,7 +196,7 @@ def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, pro
 
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
-    names = energy_names(problem.n_blocks)
+    names = energy_names(problem.n_blocks, problem.n_axes)
     samples = out.samples[0]
     max_deviation, initial_energies = out.max_deviation[0], out.initial_energies[0]
     if co is not None and not np.all(np.isfinite(co.modified_p)):

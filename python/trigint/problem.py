@@ -153,6 +153,11 @@ class OscillatoryProblem:
         """Number of coordinates n."""
         return self._n
 
+    #: per-axis channels streamed besides the energies (a wave problem's momentum): their
+    #: number, and the pair form in the core's coordinates ({"a", "b", "weights"}) or None
+    n_axes: int = 0
+    pair_forms: dict | None = None
+
     def as_state(self, x, name: str):
         """A state as the kernels take it: here unchanged (a wave problem flattens grid values).
 

@@ -133,6 +133,9 @@ class WaveProblem(OscillatoryProblem):
         self.modes = j[order][starts]
         self.mode_frequencies = self.omega[starts]
         self._parts = parts[order]
+        self._wavevectors = j[order]
+        self.n_axes = len(shape)
+        self.pair_forms = self._momentum_form()
         self.potential = self._potential(potential, params, variable, order)
         self.action_modes = self._action_modes(modes)
 
@@ -147,6 +150,17 @@ class WaveProblem(OscillatoryProblem):
         expr = _tape.parse(potential, [str(var), *params], "potential")
         tape = _tape.tape(expr, [var], params, "potential", "variable")
         return WavePotential(self.shape, tape, order, str(expr))
+
+    def _momentum_form(self) -> dict:
+        """K_m = −mean_x(v ∂_m u) = Σ_pairs j_m (q_a p_b − q_b p_a), a and b the cosine and sine
+        coordinates of a mode (the Nyquist component's derivative taken as 0), streamed by the
+        core as the channels momentum_1 … momentum_d."""
+        cos = np.flatnonzero(self._parts == 1)
+        j = self._wavevectors[cos].astype(float)
+        for axis, n in enumerate(self.shape):
+            j[np.abs(j[:, axis]) == n // 2, axis] = 0.0
+        return {"a": [int(i) for i in cos], "b": [int(i) + 1 for i in cos],
+                "weights": np.ascontiguousarray(j.T.reshape(-1))}
 
     def _action_modes(self, modes) -> np.ndarray:
         n_modes = self.modes.shape[0]
@@ -190,27 +204,42 @@ class WaveProblem(OscillatoryProblem):
         return self.fourier_map.to_core(np.asarray(self.as_state(u, "u"), dtype=float))
 
     def momentum(self, u, v) -> np.ndarray:
-        """K = −mean_x(v ∇u) (one component per axis, last axis of the result) of grid values
-        u, v of shape (…, N), the derivative spectral (the Nyquist wavenumber's derivative 0)."""
-        q, p = self.fourier(u), self.fourier(v)
-        out = []
-        cos = np.flatnonzero(self._parts == 1)
-        for axis, n in enumerate(self.shape):
-            jm = self.fourier_map_wavevectors[cos, axis].astype(float)
-            jm[np.abs(jm) == n // 2] = 0.0
-            a, b, c, d = q[..., cos], q[..., cos + 1], p[..., cos], p[..., cos + 1]
-            out.append(np.sum(jm * (a * d - b * c), axis=-1))
-        return np.stack(out, axis=-1)
+        """K = −mean_x(v ∇u) of grid values u, v of shape (…, N) or (…, *shape): one component
+        per axis (the last axis of the result), the derivative spectral (the Nyquist
+        wavenumber's derivative 0). The form the core streams as ``momentum_1`` ….
 
-    @property
-    def fourier_map_wavevectors(self) -> np.ndarray:
-        return np.asarray(self.fourier_grid.wavevectors())[self.fourier_map.order]
+        Parameters
+        ----------
+        u, v : array
+            Grid values of the field and its time derivative.
+        """
+        q, p = self.fourier(u), self.fourier(v)
+        f = self.pair_forms
+        a, b = np.asarray(f["a"]), np.asarray(f["b"])
+        w = f["weights"].reshape(len(self.shape), -1)
+        return (q[..., a] * p[..., b] - q[..., b] * p[..., a]) @ w.T
 
     def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
                        coords: dict, attrs: dict) -> xr.Dataset:
         """The wave's energies at the samples: H (``total``), H_ω, ``slow``, H*_ω, the
-        ``momentum`` (over ``axis``) and the ``action`` J_j over (t, mode) for `action_modes`."""
+        ``momentum`` (over ``axis``, streamed) and the ``action`` J_j over (t, mode) for
+        `action_modes`.
+
+        Parameters
+        ----------
+        names : list of str
+            The channels, in the order of the columns of `energies`.
+        energies : array, shape (samples, channels)
+            The streamed channels at the samples.
+        q, p : array, shape (samples, N)
+            The sampled grid values (unused: every channel is streamed).
+        coords, attrs : dict
+            The Dataset's coordinates (``t``, ``step``) and attributes.
+        """
         whole = {name: ("t", energies[:, k]) for k, name in enumerate(names) if not name[-1].isdigit()}
+        streamed = [f"momentum_{m + 1}" for m in range(self.n_axes)]
+        momentum = {"momentum": (("t", "axis"), np.stack([energies[:, names.index(k)] for k in streamed], axis=1))
+                    } if streamed else {}
         first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
@@ -221,7 +250,7 @@ class WaveProblem(OscillatoryProblem):
                        "wavenumber": ("mode", j[:, 0] if d == 1 else np.sqrt(np.sum(j.astype(float) ** 2, axis=1))),
                        **{f"j{a}": ("mode", j[:, a]) for a in range(d)},
                        "omega": ("mode", self.mode_frequencies[self.action_modes])}
-        data = {**whole, "momentum": (("t", "axis"), self.momentum(q, p)),
+        data = {**whole, **momentum,
                 "action": (("t", "mode"), actions)}
         return xr.Dataset(data, coords={**coords, **mode_coords, "axis": np.arange(d)}, attrs=attrs)
 

@@ -3,7 +3,9 @@
 //!
 //! The channels themselves (names, order) are the table in [`crate::channels`].
 
+use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
+use crate::sum::Sum8;
 
 pub use crate::channels::{FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
 
@@ -36,6 +38,56 @@ pub fn oscillator<L: Real>(p: L, q: L, omega2: L) -> L {
 #[inline(always)]
 pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
     a * (p * p) + b * (q * q)
+}
+
+/// A bilinear invariant per axis, K_m = Σ_k w_mk (q_a p_b − q_b p_a) over index pairs (a_k, b_k)
+/// of the kernels' coordinates: the momentum of a wave equation in real Fourier coordinates
+/// (a, b the cosine and sine coordinates of a mode, w_mk its wavenumber along axis m). Its
+/// channels are the table's per-axis entries ([`crate::channels`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairForms {
+    pub a: Vec<usize>,
+    pub b: Vec<usize>,
+    /// Axis-major: weights[m * pairs + k].
+    pub weights: Vec<f64>,
+}
+
+impl PairForms {
+    /// Checks the pairs against n coordinates and the weights against the number of pairs.
+    pub fn new(a: Vec<usize>, b: Vec<usize>, weights: Vec<f64>, n: usize) -> CoreResult<Self> {
+        let bad = |reason: String| Err(CoreError::invalid("pair forms", reason));
+        if a.len() != b.len() || a.is_empty() {
+            return bad(format!("{} first and {} second indices", a.len(), b.len()));
+        }
+        if let Some(i) = a.iter().chain(&b).find(|&&i| i >= n) {
+            return bad(format!("index {i} is not below the {n} coordinates"));
+        }
+        if weights.is_empty() || weights.len() % a.len() != 0 {
+            return bad(format!("{} weights for {} pairs", weights.len(), a.len()));
+        }
+        if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
+            return bad(format!("weight {w} is not finite"));
+        }
+        Ok(PairForms { a, b, weights })
+    }
+
+    /// Number of axes (channels).
+    pub fn axes(&self) -> usize {
+        self.weights.len() / self.a.len()
+    }
+
+    /// K_m of the state (q, p) into `out[m]`, each a sum in the kernels' fixed order.
+    pub fn evaluate<L: Real>(&self, q: &[L], p: &[L], out: &mut [L]) {
+        let pairs = self.a.len();
+        for (m, k) in out.iter_mut().enumerate() {
+            let w = &self.weights[m * pairs..(m + 1) * pairs];
+            let mut sum = Sum8::new();
+            for (t, ((&a, &b), &wt)) in self.a.iter().zip(&self.b).zip(w).enumerate() {
+                sum.add(t % 8, t >= 8, L::splat(wt) * (q[a] * p[b] - q[b] * p[a]));
+            }
+            *k = sum.total(pairs);
+        }
+    }
 }
 
 /// Sums of the forms over one state, as a sweep accumulates them.
@@ -84,14 +136,15 @@ impl<L: Real> Sums<L> {
 pub struct Extremes<L> {
     pub high: [L; FIRST_BLOCK],
     pub low: [L; FIRST_BLOCK],
-    /// I_1 … I_ℓ when ℓ > 1 (for ℓ = 1, I_1 = H_ω)
+    /// I_1 … I_ℓ when ℓ > 1 (for ℓ = 1, I_1 = H_ω), then the per-axis channels
     pub block_high: Vec<L>,
     pub block_low: Vec<L>,
 }
 
 impl<L: Real> Extremes<L> {
-    pub fn new(n_blocks: usize) -> Self {
-        let several = if n_blocks > 1 { n_blocks } else { 0 };
+    /// For ℓ blocks and `axes` per-axis channels.
+    pub fn new(n_blocks: usize, axes: usize) -> Self {
+        let several = if n_blocks > 1 { n_blocks } else { 0 } + axes;
         Extremes {
             high: [L::splat(f64::NEG_INFINITY); FIRST_BLOCK],
             low: [L::splat(f64::INFINITY); FIRST_BLOCK],
@@ -127,23 +180,24 @@ impl<L: Real> Extremes<L> {
         self.low = low;
     }
 
+    /// Takes the per-block channels (ℓ > 1, else empty) and then the per-axis ones.
     #[inline(always)]
-    pub fn update_blocks(&mut self, blocks: &[L]) {
-        for (j, &e) in blocks.iter().enumerate() {
+    pub fn update_blocks(&mut self, blocks: &[L], axes: &[L]) {
+        for (j, &e) in blocks.iter().chain(axes).enumerate() {
             self.block_high[j] = self.block_high[j].keep_max(e);
             self.block_low[j] = self.block_low[j].keep_min(e);
         }
     }
 
-    /// The extremes of lane b in channel order (I_1 = H_ω for ℓ = 1).
+    /// The extremes of lane b in channel order (I_1 = H_ω for ℓ = 1; the per-axis channels
+    /// last).
     pub fn lane(&self, b: usize, n_blocks: usize) -> (Vec<f64>, Vec<f64>) {
         let pick = |main: &[L; FIRST_BLOCK], blocks: &[L]| {
             let mut v: Vec<f64> = main.iter().map(|x| x.lane(b)).collect();
             if n_blocks == 1 {
                 v.push(main[OSCILLATORY].lane(b));
-            } else {
-                v.extend(blocks.iter().map(|x| x.lane(b)));
             }
+            v.extend(blocks.iter().map(|x| x.lane(b)));
             v
         };
         (

@@ -55,6 +55,7 @@ pub fn layout(omega: &[f64]) -> Layout {
         omega2: omega.iter().map(|w| w * w).collect(),
         n_slow,
         block_ends,
+        pair_forms: None,
     }
 }
 

@@ -7,6 +7,7 @@
 //! a compile-time constant: the state lives in registers and the slow coordinates run
 //! Störmer–Verlet's arithmetic without the zero coefficients of a general row.
 
+use crate::energy::PairForms;
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 
@@ -205,11 +206,19 @@ pub struct Layout {
     pub n_slow: usize,
     /// End of each oscillatory block (increasing, the last one = n).
     pub block_ends: Vec<usize>,
+    /// A bilinear invariant streamed with the energies (the momentum of a wave equation), or
+    /// None.
+    pub pair_forms: Option<PairForms>,
 }
 
 impl Layout {
     pub fn dim(&self) -> usize {
         self.omega2.len()
+    }
+
+    /// Number of per-axis channels (0 without pair forms).
+    pub fn n_axes(&self) -> usize {
+        self.pair_forms.as_ref().map_or(0, |p| p.axes())
     }
 
     /// ℓ, the number of oscillatory blocks.
@@ -250,6 +259,13 @@ impl Layout {
         }
         if let Some(i) = (0..self.n_slow).find(|&i| self.omega2[i] != 0.0) {
             return bad(format!("slow coordinate {i} has a non-zero frequency"));
+        }
+        if let Some(f) = &self.pair_forms {
+            if let Some(i) = f.a.iter().chain(&f.b).find(|&&i| i >= n) {
+                return bad(format!(
+                    "pair form index {i} is not below the {n} coordinates"
+                ));
+            }
         }
         if let Some(i) = (self.n_slow..n).find(|&i| self.omega2[i] == 0.0) {
             return bad(format!(

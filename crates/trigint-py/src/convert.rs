@@ -6,6 +6,7 @@ use pyo3::conversion::FromPyObjectOwned;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use trigint_core::energy::PairForms;
 use trigint_core::{Form, Layout, LinearMap, MethodCoefficients, Op, ProgramSpec, Record};
 
 /// `d[key]`, or a TypeError naming the key.
@@ -25,10 +26,28 @@ pub fn vec1(a: PyReadonlyArray1<f64>) -> Vec<f64> {
 
 /// The problem's arrangement: `{"omega2", "n_slow", "block_ends"}`.
 pub fn layout(d: &Bound<'_, PyDict>) -> PyResult<Layout> {
+    let omega2 = vec1(item(d, "omega2")?);
+    // {"a", "b", "weights"}: the pair form of a wave equation's momentum (optional)
+    let pair_forms = match d.get_item("pair_forms")? {
+        Some(f) if !f.is_none() => {
+            let f = f.cast::<PyDict>()?;
+            Some(
+                PairForms::new(
+                    item(f, "a")?,
+                    item(f, "b")?,
+                    vec1(item(f, "weights")?),
+                    omega2.len(),
+                )
+                .map_err(|e| PyValueError::new_err(e.to_string()))?,
+            )
+        }
+        _ => None,
+    };
     Ok(Layout {
-        omega2: vec1(item(d, "omega2")?),
+        omega2,
         n_slow: item(d, "n_slow")?,
         block_ends: item(d, "block_ends")?,
+        pair_forms,
     })
 }
 

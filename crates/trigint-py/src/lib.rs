@@ -99,7 +99,7 @@ fn integrate<'py>(
         py,
         vec![out],
         q0.len(),
-        channel_count(lay.n_blocks()),
+        channel_count(lay.n_blocks(), lay.n_axes()),
         true,
         interrupted,
         pending.map(|e| e.to_string()),
@@ -213,7 +213,7 @@ fn integrate_batch<'py>(
         py,
         out,
         n,
-        channel_count(lay.n_blocks()),
+        channel_count(lay.n_blocks(), lay.n_axes()),
         save_every.is_some(),
         interrupted,
         interrupted_by,
@@ -297,10 +297,12 @@ fn instructions(potential: &Bound<'_, PyDict>) -> PyResult<Option<usize>> {
     Ok(NativePotential::from_spec(potential)?.instructions())
 }
 
-/// channels(n_blocks) -> the energy channel names in output order
+/// channels(n_blocks, n_axes=0) -> the energy channel names in output order (n_axes: the
+/// per-axis channels of a pair form, such as a wave equation's momentum)
 #[pyfunction]
-fn channels(n_blocks: usize) -> Vec<String> {
-    channel_names(n_blocks)
+#[pyo3(signature = (n_blocks, n_axes = 0))]
+fn channels(n_blocks: usize, n_axes: usize) -> Vec<String> {
+    channel_names(n_blocks, n_axes)
 }
 
 #[pymodule]
@@ -325,6 +327,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         d.set_item("name", c.name)?;
         d.set_item("form", c.form)?;
         d.set_item("per_block", c.per_block)?;
+        d.set_item("per_axis", c.per_axis)?;
         channels.append(d)?;
     }
     m.add("CHANNELS", channels)?;

@@ -16,8 +16,9 @@
 //! the top of step n, so it is not carried from one step to the next) or q_n, p_n and g_n
 //! (one-step form, which needs g_n in two consecutive steps).
 
+use crate::channels::channel_count;
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
-use crate::energy::{Extremes, Samples, Sums, FIRST_BLOCK, TOTAL};
+use crate::energy::{Extremes, PairForms, Samples, Sums, FIRST_BLOCK, TOTAL};
 use crate::error::CoreResult;
 use crate::output::{Form, Record, Status, TrajectoryOutput};
 use crate::potential::Potential;
@@ -47,7 +48,7 @@ pub(super) struct Observed<L: Real, Sh: Shape> {
     pub(super) q: Sh::S<L>,
     pub(super) p: Sh::S<L>,
     pub(super) main: [L; FIRST_BLOCK],
-    /// I_1 … I_ℓ for ℓ > 1
+    /// I_1 … I_ℓ for ℓ > 1, then the per-axis channels
     pub(super) blocks: Vec<L>,
 }
 
@@ -86,6 +87,9 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     pub(super) ext: Extremes<L>,
     /// Σ(p² + ω²q²) per block, when ℓ > 1
     pub(super) block_sums: Vec<L>,
+    /// The layout's pair forms (a momentum), streamed as the per-axis channels into `axes`.
+    pub(super) pairs: Option<&'a PairForms>,
+    pub(super) axes: Vec<L>,
     pub(super) lanes: Vec<Lane>,
     /// The lanes still running.
     pub(super) active: LaneSet,
@@ -140,7 +144,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             k: Coef::new(sh, methods),
             w: Weights::new(sh, omega2, methods),
             st,
-            checkpoint: (z(), z(), z(), Extremes::new(n_blocks)),
+            checkpoint: (z(), z(), z(), Extremes::new(n_blocks, 0)),
             good: Observed {
                 step: 0,
                 q: z(),
@@ -148,11 +152,30 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 main: [L::zero(); FIRST_BLOCK],
                 blocks: vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 }],
             },
-            ext: Extremes::new(n_blocks),
+            ext: Extremes::new(n_blocks, 0),
             block_sums: vec![L::zero(); n_blocks.max(1)],
+            pairs: None,
+            axes: Vec::new(),
             lanes,
             active: LaneSet::first(count),
         }
+    }
+
+    /// Streams the layout's pair forms (if any) as the per-axis channels.
+    pub fn with_pair_forms(mut self, pairs: Option<&'a PairForms>) -> Self {
+        let Some(f) = pairs else {
+            return self;
+        };
+        let (n_blocks, axes) = (self.sh.block_ends().len(), f.axes());
+        self.pairs = pairs;
+        self.axes = vec![L::zero(); axes];
+        self.ext = Extremes::new(n_blocks, axes);
+        self.checkpoint.3 = Extremes::new(n_blocks, axes);
+        self.good.blocks = vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 } + axes];
+        for lane in &mut self.lanes {
+            lane.initial = vec![f64::NAN; channel_count(n_blocks, axes)];
+        }
+        self
     }
 
     #[inline(always)]
@@ -334,15 +357,20 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         }
     }
 
-    /// The main channels and (ℓ > 1) the block energies of the current sums.
+    /// The main channels, (ℓ > 1) the block energies of the current sums and the per-axis
+    /// channels of the state (q_n in `q`, p_n in `p`).
     pub(super) fn channels(&mut self, sums: &Sums<L>) -> ([L; FIRST_BLOCK], Vec<L>) {
         let main = sums.channels(self.st.u, self.w.plain_modified);
-        let blocks = if self.sh.single_block() {
+        let mut blocks = if self.sh.single_block() {
             Vec::new()
         } else {
             self.half_blocks();
             self.block_sums.clone()
         };
+        if let Some(f) = self.pairs {
+            f.evaluate(self.st.q.get(), self.st.p.get(), &mut self.axes);
+            blocks.extend_from_slice(&self.axes);
+        }
         (main, blocks)
     }
 

@@ -3,7 +3,7 @@
 
 use super::bundle::{Bundle, CHECK};
 use crate::coefficients::{Coef, Weights};
-use crate::energy::{Extremes, Sums, TOTAL};
+use crate::energy::{Extremes, PairForms, Sums, TOTAL};
 use crate::error::CoreResult;
 use crate::output::Form;
 use crate::potential::Potential;
@@ -71,6 +71,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             st: std::mem::replace(&mut self.st, State::placeholder()),
             ext: std::mem::replace(&mut self.ext, Extremes::placeholder()),
             block_sums: &mut self.block_sums,
+            pairs: self.pairs,
+            axes: &mut self.axes,
             active: self.active,
             n,
             e,
@@ -101,6 +103,8 @@ struct HotLoop<
     st: State<L, Sh>,
     ext: Extremes<L>,
     block_sums: &'a mut [L],
+    pairs: Option<&'a PairForms>,
+    axes: &'a mut [L],
     active: LaneSet,
     n: u64,
     e: u64,
@@ -148,10 +152,12 @@ impl<
         let (active, n, e) = (self.active, self.n, self.e);
         let ws = &mut *self.ws;
         let block_sums = &mut *self.block_sums;
-        let obs = if TRACK {
-            Observe::Energies
-        } else {
-            Observe::No
+        let (pairs, axes) = (self.pairs, &mut *self.axes);
+        // A pair form needs p_n itself: the two-step sweep then stores it (q is advanced after).
+        let obs = match (TRACK, pairs.is_some()) {
+            (false, _) => Observe::No,
+            (true, false) => Observe::Energies,
+            (true, true) => Observe::State,
         };
         // φ ≡ 1: a constant for compile-time shapes, else the (loop-invariant) flag, so that
         // long chains skip the product φq and the second evaluation of U as well.
@@ -162,9 +168,17 @@ impl<
         for j in n..e {
             let sums = if TWO_STEP {
                 recursion::evaluate(sh, pot, ws, k, st, TRACK, phi)?;
-                recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums)
+                let s = recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums);
+                if let (true, Some(f)) = (TRACK, pairs) {
+                    f.evaluate(st.q.get(), st.p.get(), axes);
+                    recursion::finish_state_step(sh, st);
+                }
+                s
             } else {
                 let s = if TRACK {
+                    if let Some(f) = pairs {
+                        f.evaluate(st.q.get(), st.p.get(), axes);
+                    }
                     recursion::sums_of_state(sh, w, st.q.get(), st.p.get(), PLAIN, block_sums)
                 } else {
                     Sums::zero()
@@ -181,7 +195,9 @@ impl<
                     for s in block_sums.iter_mut() {
                         *s = half * *s;
                     }
-                    ext.update_blocks(block_sums);
+                    ext.update_blocks(block_sums, axes);
+                } else if pairs.is_some() {
+                    ext.update_blocks(&[], axes);
                 }
             }
             if !TWO_STEP {

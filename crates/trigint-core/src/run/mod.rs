@@ -130,7 +130,8 @@ pub fn integrate<P: Potential>(
             &[q0],
             &[p0],
             &[n_steps],
-        );
+        )
+        .with_pair_forms(layout.pair_forms.as_ref());
         let mut control = control;
         bundle.run(&mut control)
     })?;
@@ -208,7 +209,8 @@ pub fn integrate_batch<L: Real, P: Potential>(
                 let p: Vec<&[f64]> = ids.iter().map(|&t| &p0[t * n..(t + 1) * n]).collect();
                 let s: Vec<u64> = ids.iter().map(|&t| n_steps[t]).collect();
                 let bundle =
-                    Bundle::<L, _, P>::new(sh, pot, &layout.omega2, form, record, &m, &q, &p, &s);
+                    Bundle::<L, _, P>::new(sh, pot, &layout.omega2, form, record, &m, &q, &p, &s)
+                        .with_pair_forms(layout.pair_forms.as_ref());
                 let mut go_on = |_| !stop.load(Ordering::Relaxed);
                 let mut control = Control {
                     every: poll.max(1),

@@ -42,7 +42,7 @@ impl<L: Real> LaneBook<'_, L> {
         let ext = &mut *self.ext;
         if mask == LaneSet::first(L::LANES) {
             ext.update(main, false);
-            ext.update_blocks(blocks);
+            ext.update_blocks(blocks, &[]);
             return;
         }
         for b in mask.iter() {
@@ -61,16 +61,14 @@ impl<L: Real> LaneBook<'_, L> {
         }
     }
 
-    /// The energy row of lane b in channel order.
+    /// The energy row of lane b in channel order (`blocks`: I_1 … I_ℓ for ℓ > 1, then the
+    /// per-axis channels).
     pub fn row(&self, main: &[L; FIRST_BLOCK], blocks: &[L], b: usize) -> Vec<f64> {
         let mut r: Vec<f64> = main.iter().map(|x| x.lane(b)).collect();
-        if self.single_block {
-            if self.n_blocks > 0 {
-                r.push(main[OSCILLATORY].lane(b));
-            }
-        } else {
-            r.extend(blocks.iter().map(|x| x.lane(b)));
+        if self.single_block && self.n_blocks > 0 {
+            r.push(main[OSCILLATORY].lane(b));
         }
+        r.extend(blocks.iter().map(|x| x.lane(b)));
         r
     }
 
