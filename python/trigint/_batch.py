@@ -135,16 +135,17 @@ def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> di
     return {k: v.reshape(d, n) for k, v in rows.items()}
 
 
-def core_arguments(problem: OscillatoryProblem) -> tuple[dict, dict, _native.CoreLayout | None]:
-    """What every chunk of a problem's batch needs: the potential's and the layout's
-    descriptions in the core's coordinates, and the layout that maps states to and from them
-    (None if the core's coordinates are the user's)."""
+def core_arguments(problem: OscillatoryProblem) -> tuple[object, dict, _native.CoreLayout | None]:
+    """What every chunk of a problem's batch needs: the potential built in the core's
+    coordinates (once per problem; it pickles as its description), the layout's description,
+    and the layout that maps states to and from them (None if the core's coordinates are the
+    user's)."""
     lay = _native.core_layout(problem)
     order = None if lay.identity and lay.basis is None and lay.transform is None else lay
-    return _native.potential_spec(problem.potential, lay), lay.spec, order
+    return _native.problem_potential(problem, lay), lay.spec, order
 
 
-def run_chunk(potential_spec: dict, layout_spec: dict, order: _native.CoreLayout | None, rows: dict,
+def run_chunk(potential_spec, layout_spec: dict, order: _native.CoreLayout | None, rows: dict,
               save_every: int | None, track: bool, threads: int | None = None,
               form: str = "two-step"):
     """Runs one chunk of trajectories in the core. Module-level and free of local state, so

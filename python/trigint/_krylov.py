@@ -134,7 +134,7 @@ class CompiledPotential:
     """U and −∇U of one state, compiled once for the whole run."""
 
     def __init__(self, potential, n: int):
-        self.evaluator = _native.evaluator(potential._spec(n))
+        self.evaluator = _native.built_potential(potential, n)
 
     def force(self, q: np.ndarray) -> np.ndarray:
         return self.evaluator.evaluate(q[None, :])[1][0]

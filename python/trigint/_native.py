@@ -10,6 +10,7 @@ inputs in the user's coordinates (the permutation or Q composed into their input
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,7 +70,42 @@ class CoreLayout:
 def evaluator(spec: dict):
     """A potential compiled once for many evaluations: ``.evaluate(x)`` of x of shape (m, n)
     returns (U at each row, −∇U at each row)."""
-    return _core.Evaluator(spec)
+    return _core.Potential(spec)
+
+
+#: built potentials (``_core.Potential``: tape compiled, FFTs planned), one per owner (a
+#: potential, or a problem whose layout maps the potential's inputs), with the key they were
+#: built for
+_BUILT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: how often each potential has changed (ChainPotential.add): a built one of an older version
+#: is rebuilt
+_VERSIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _built(owner, key, spec):
+    entry = _BUILT.get(owner)
+    if entry is not None and entry[0] == key:
+        return entry[1]
+    handle = _core.Potential(spec())
+    _BUILT[owner] = (key, handle)
+    return handle
+
+
+def changed(potential) -> None:
+    """Says that `potential` has changed: what was built from it is built again when next used."""
+    _VERSIONS[potential] = _VERSIONS.get(potential, 0) + 1
+    _BUILT.pop(potential, None)
+
+
+def built_potential(potential, n: int):
+    """The potential on n coordinates (its own order), built once and kept while it lives."""
+    return _built(potential, (n, _VERSIONS.get(potential, 0)), lambda: potential._spec(n))
+
+
+def problem_potential(problem, lay: CoreLayout):
+    """A problem's potential in the core's coordinates (maps composed), built once per problem."""
+    key = (_VERSIONS.get(problem.potential, 0), id(problem.potential))
+    return _built(problem, key, lambda: potential_spec(problem.potential, lay))
 
 
 def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -215,7 +251,7 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
     lay = core_layout(problem)
     fast = problem.omega > 0
     out = _core.integrate(
-        potential_spec(problem.potential, lay), lay.spec, method_spec(co, lay, fast),
+        problem_potential(problem, lay), lay.spec, method_spec(co, lay, fast),
         lay.to_core(q0), lay.to_core(p0), int(n_steps), int(save_every), form, bool(track),
         int(every), callback,
     )
@@ -224,12 +260,13 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
     return out
 
 
-def integrate_batch(potential_spec_core: dict, layout_spec: dict, methods: dict, q0, p0, n_steps,
+def integrate_batch(potential_core, layout_spec: dict, methods: dict, q0, p0, n_steps,
                     save_every, form, track, threads):
     """Runs a batch whose inputs are already in the core's order (see :func:`core_layout`);
-    returns the core's RunResult."""
+    `potential_core` is a built potential (:func:`problem_potential`) or its description.
+    Returns the core's RunResult."""
     return _core.integrate_batch(
-        potential_spec_core, layout_spec, methods, np.ascontiguousarray(q0, dtype=float),
+        potential_core, layout_spec, methods, np.ascontiguousarray(q0, dtype=float),
         np.ascontiguousarray(p0, dtype=float), [int(s) for s in n_steps], save_every, form,
         bool(track), threads,
     )
@@ -248,10 +285,13 @@ def run_result(status: list[str], messages: list[str], steps_done, initial_energ
     )
 
 
-def evaluate(spec: dict, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(U, −∇U) at the rows of x (user order: the spec is not permuted)."""
-    return _core.evaluate(spec, np.ascontiguousarray(x, dtype=float))
+def evaluate(potential, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(U, −∇U) at the rows of x (the potential's own order), the potential built once."""
+    x = np.ascontiguousarray(x, dtype=float)
+    return built_potential(potential, x.shape[1]).evaluate(x)
 
 
-def instructions(spec: dict) -> int | None:
-    return _core.instructions(spec)
+def instructions(potential, n: int) -> int | None:
+    """Builds the potential now (so that a bad one fails here) and returns the instruction count
+    of a compiled program's force code."""
+    return built_potential(potential, n).instructions()

@@ -120,7 +120,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks, problem.n_axes)
     args = core_arguments(problem)
-    _check_sendable(client, problem.potential, args[0])
+    _check_sendable(client, problem.potential, args[0].spec)
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
                   threads=None if threads is None else int(min(threads, count)))

@@ -74,7 +74,7 @@ class Potential(ABC):
     def _evaluate(self, q) -> tuple[np.ndarray, np.ndarray, bool]:
         q2 = _rows(q)
         self.check_dim(q2.shape[1])
-        values, forces = _native.evaluate(self._spec(q2.shape[1]), q2)
+        values, forces = _native.evaluate(self, q2)
         return values, forces, np.ndim(q) == 1
 
     def value(self, q) -> np.ndarray | float:
@@ -286,7 +286,7 @@ class ExpressionPotential(Potential):
         self._tape = _tape.tape(self.expr, coords, self.params)
         self.dim = len(coords)
         # Compiled here, so that an invalid program fails at construction, not at the first step.
-        self.instructions = _native.instructions(self._spec(self.dim))
+        self.instructions = _native.instructions(self, self.dim)
 
     def _spec(self, n: int) -> dict:
         return {"kind": "program", **self._tape, "map": None}
@@ -467,7 +467,8 @@ class ChainPotential(Potential):
         rows = _linear_rows(self.dim, pairs, sites, matrix)
         self.terms.append({"v": _tape.tape(expr, [var], params, "v", "variable"), "map": rows})
         self._descriptions.append(f"{len(rows['ptr']) - 1} x V({var}) = {expr}")
-        _native.instructions(self._spec(self.dim))  # compile now: errors here, not later
+        _native.changed(self)
+        _native.instructions(self, self.dim)  # compile now: errors here, not later
         return self
 
     def _spec(self, n: int) -> dict:

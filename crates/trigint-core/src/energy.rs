@@ -62,7 +62,7 @@ impl PairForms {
         if let Some(i) = a.iter().chain(&b).find(|&&i| i >= n) {
             return bad(format!("index {i} is not below the {n} coordinates"));
         }
-        if weights.is_empty() || weights.len() % a.len() != 0 {
+        if weights.is_empty() || !weights.len().is_multiple_of(a.len()) {
             return bad(format!("{} weights for {} pairs", weights.len(), a.len()));
         }
         if let Some(w) = weights.iter().find(|w| !w.is_finite()) {

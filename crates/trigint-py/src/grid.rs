@@ -82,7 +82,8 @@ impl FourierGrid {
     }
 
     /// from_grid(u) -> q = Sᵀu / N (the inverse of `to_grid`), row by row.
-    fn from_grid<'py>(
+    #[pyo3(name = "from_grid")]
+    fn fourier_of<'py>(
         &self,
         py: Python<'py>,
         u: PyReadonlyArray2<f64>,

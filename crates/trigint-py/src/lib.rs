@@ -3,6 +3,7 @@
 
 mod convert;
 mod grid;
+mod handle;
 mod potential;
 mod result;
 
@@ -44,7 +45,7 @@ fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
 #[pyo3(signature = (potential, layout, method, q0, p0, n_steps, save_every, form, track, progress_every, progress=None))]
 fn integrate<'py>(
     py: Python<'py>,
-    potential: &Bound<'py, PyDict>,
+    potential: &Bound<'py, PyAny>,
     layout: &Bound<'py, PyDict>,
     method: &Bound<'py, PyDict>,
     q0: PyReadonlyArray1<f64>,
@@ -56,7 +57,8 @@ fn integrate<'py>(
     progress_every: u64,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<RunResult> {
-    let pot = NativePotential::from_spec(potential)?;
+    let given = handle::given(potential)?;
+    let pot = given.get();
     let lay = convert::layout(layout)?;
     let co = convert::method(method)?;
     let form = convert::form(form)?;
@@ -89,11 +91,11 @@ fn integrate<'py>(
             every: progress_every.max(1),
             report: &mut report,
         };
-        with_potential!(&pot, |p| trigint_core::integrate(
+        with_potential!(pot, |p| trigint_core::integrate(
             p, &lay, &co, &q0, &p0, n_steps, form, record, control
         ))
     });
-    let out = out.map_err(|e| to_py(e, &pot))?;
+    let out = out.map_err(|e| to_py(e, pot))?;
     let interrupted = out.status == trigint_core::Status::Interrupted;
     result::from_outputs(
         py,
@@ -125,7 +127,7 @@ const WORKER_STACK: usize = 64 << 20;
 #[pyo3(signature = (potential, layout, methods, q0, p0, n_steps, save_every, form, track, threads=None))]
 fn integrate_batch<'py>(
     py: Python<'py>,
-    potential: &Bound<'py, PyDict>,
+    potential: &Bound<'py, PyAny>,
     layout: &Bound<'py, PyDict>,
     methods: &Bound<'py, PyDict>,
     q0: PyReadonlyArray2<f64>,
@@ -136,7 +138,8 @@ fn integrate_batch<'py>(
     track: bool,
     threads: Option<usize>,
 ) -> PyResult<RunResult> {
-    let pot = NativePotential::from_spec(potential)?;
+    let given = handle::given(potential)?;
+    let pot = given.get();
     let lay = convert::layout(layout)?;
     let methods = convert::methods(methods)?;
     let form = convert::form(form)?;
@@ -160,13 +163,13 @@ fn integrate_batch<'py>(
     };
     let run = || {
         let body = |pool: &rayon::ThreadPool| {
-            pool.install(|| match &pot {
+            pool.install(|| match pot {
                 NativePotential::Python(p) if p.vectorized() => {
                     trigint_core::integrate_batch::<WideLanes, _>(
                         p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
                     )
                 }
-                _ => with_potential!(&pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
+                _ => with_potential!(pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
                     p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
                 )),
             })
@@ -200,7 +203,7 @@ fn integrate_batch<'py>(
     });
     let out = match out {
         Ok(Ok(Ok(o))) => o,
-        Ok(Ok(Err(e))) => return Err(to_py(e, &pot)),
+        Ok(Ok(Err(e))) => return Err(to_py(e, pot)),
         Ok(Err(e)) => {
             return Err(PyRuntimeError::new_err(format!(
                 "could not start threads: {e}"
@@ -221,20 +224,22 @@ fn integrate_batch<'py>(
 }
 
 /// U at each row and −∇U at each row.
-type ValuesAndForces<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
+pub(crate) type ValuesAndForces<'py> =
+    (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
 
 /// evaluate(potential, x) -> (U at each row of x (m, n), −∇U at each row)
 #[pyfunction]
 fn evaluate<'py>(
     py: Python<'py>,
-    potential: &Bound<'py, PyDict>,
+    potential: &Bound<'py, PyAny>,
     x: PyReadonlyArray2<f64>,
 ) -> PyResult<ValuesAndForces<'py>> {
-    let pot = NativePotential::from_spec(potential)?;
+    let given = handle::given(potential)?;
+    let pot = given.get();
     let (m, n) = (x.shape()[0], x.shape()[1]);
     let data: Vec<f64> = x.as_array().iter().copied().collect();
-    let r = py.detach(|| with_potential!(&pot, |p| values_and_forces(p, &data, m, n)));
-    let (v, f) = r.map_err(|e| to_py(e, &pot))?;
+    let r = py.detach(|| with_potential!(pot, |p| values_and_forces(p, &data, m, n)));
+    let (v, f) = r.map_err(|e| to_py(e, pot))?;
     Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
 }
 
@@ -260,37 +265,6 @@ fn change_basis<'py>(
     to_2d(py, y, rows, n)
 }
 
-/// A potential compiled once and evaluated many times (the Krylov path's steps, which run in
-/// Python): `Evaluator(spec).evaluate(x)` is `evaluate(spec, x)` without rebuilding the spec.
-#[pyclass(frozen)]
-struct Evaluator {
-    pot: NativePotential,
-}
-
-#[pymethods]
-impl Evaluator {
-    #[new]
-    fn new(potential: &Bound<'_, PyDict>) -> PyResult<Self> {
-        Ok(Evaluator {
-            pot: NativePotential::from_spec(potential)?,
-        })
-    }
-
-    /// evaluate(x) -> (U at each row of x (m, n), −∇U at each row)
-    fn evaluate<'py>(
-        &self,
-        py: Python<'py>,
-        x: PyReadonlyArray2<f64>,
-    ) -> PyResult<ValuesAndForces<'py>> {
-        let (m, n) = (x.shape()[0], x.shape()[1]);
-        let data: Vec<f64> = x.as_array().iter().copied().collect();
-        let pot = &self.pot;
-        let r = py.detach(|| with_potential!(pot, |p| values_and_forces(p, &data, m, n)));
-        let (v, f) = r.map_err(|e| to_py(e, pot))?;
-        Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
-    }
-}
-
 /// instructions(potential) -> number of instructions of a compiled program's force code
 #[pyfunction]
 fn instructions(potential: &Bound<'_, PyDict>) -> PyResult<Option<usize>> {
@@ -311,7 +285,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
-    m.add_class::<Evaluator>()?;
+    m.add_class::<handle::Handle>()?;
     m.add_class::<RunResult>()?;
     m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;

@@ -17,7 +17,7 @@ pub enum NativePotential {
     Fpu(Fpu),
     Program(Program),
     Chain(Chain),
-    Wave(Wave),
+    Wave(Box<Wave>),
     Python(PythonCallbacks),
 }
 
@@ -28,7 +28,10 @@ macro_rules! with_potential {
             $crate::potential::NativePotential::Fpu($p) => $body,
             $crate::potential::NativePotential::Program($p) => $body,
             $crate::potential::NativePotential::Chain($p) => $body,
-            $crate::potential::NativePotential::Wave($p) => $body,
+            $crate::potential::NativePotential::Wave($p) => {
+                let $p: &trigint_core::Wave = $p;
+                $body
+            }
             $crate::potential::NativePotential::Python($p) => $body,
         }
     };
@@ -83,14 +86,14 @@ impl NativePotential {
             }
             "wave" => {
                 let v: Bound<'_, PyDict> = item(spec, "v")?;
-                Ok(Self::Wave(
+                Ok(Self::Wave(Box::new(
                     Wave::new(
                         &item::<Vec<usize>>(spec, "shape")?,
                         &program(&v)?,
                         item(spec, "order")?,
                     )
                     .map_err(value_error)?,
-                ))
+                )))
             }
             "python" => Ok(Self::Python(PythonCallbacks {
                 dim: item(spec, "n")?,

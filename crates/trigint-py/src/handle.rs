@@ -1,0 +1,90 @@
+//! `_core.Potential`: a potential built (its tape compiled to machine code, its FFTs planned)
+//! once and passed to every entry point instead of its description. It pickles as its
+//! description, so a worker process builds it once per chunk as before.
+
+use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::potential::{to_2d, values_and_forces, with_potential, NativePotential};
+use crate::{to_py, ValuesAndForces};
+
+/// Potential(spec): the potential of a description (`{"kind": …}`), built once.
+#[pyclass(frozen, module = "trigint._core", name = "Potential")]
+pub struct Handle {
+    pub pot: NativePotential,
+    spec: Py<PyDict>,
+}
+
+/// The potential an entry point was given: a handle (built already) or a description (built
+/// here, for this call).
+pub enum Given<'py> {
+    Built(Bound<'py, Handle>),
+    Described(Box<NativePotential>),
+}
+
+impl Given<'_> {
+    pub fn get(&self) -> &NativePotential {
+        match self {
+            Given::Built(h) => &h.get().pot,
+            Given::Described(p) => p,
+        }
+    }
+}
+
+/// A `_core.Potential` or a description dict.
+pub fn given<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Given<'py>> {
+    if let Ok(h) = obj.cast::<Handle>() {
+        return Ok(Given::Built(h.clone()));
+    }
+    let spec = obj.cast::<PyDict>()?;
+    Ok(Given::Described(Box::new(NativePotential::from_spec(
+        spec,
+    )?)))
+}
+
+#[pymethods]
+impl Handle {
+    #[new]
+    fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(Handle {
+            pot: NativePotential::from_spec(spec)?,
+            spec: spec.clone().unbind(),
+        })
+    }
+
+    /// evaluate(x) -> (U at each row of x (m, n), −∇U at each row)
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray2<f64>,
+    ) -> PyResult<ValuesAndForces<'py>> {
+        let (m, n) = (x.shape()[0], x.shape()[1]);
+        let data: Vec<f64> = x.as_array().iter().copied().collect();
+        let pot = &self.pot;
+        let r = py.detach(|| with_potential!(pot, |p| values_and_forces(p, &data, m, n)));
+        let (v, f) = r.map_err(|e| to_py(e, pot))?;
+        Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
+    }
+
+    /// Instructions of a compiled program's force code (None for other kinds).
+    fn instructions(&self) -> Option<usize> {
+        self.pot.instructions()
+    }
+
+    /// The description it was built from.
+    #[getter]
+    fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
+        self.spec.bind(py).clone()
+    }
+
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        Ok((
+            py.get_type::<Handle>().into_any(),
+            (self.spec.bind(py).clone(),),
+        ))
+    }
+}
