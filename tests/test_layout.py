@@ -125,6 +125,32 @@ def test_no_private_name_imported_from_another_module():
     assert private == []
 
 
+def private_members_used(source: str) -> list[str]:
+    """`x._name` where x is not self, cls or a module the file imports: a private member of
+    another object, used from outside its class."""
+    tree = ast.parse(source)
+    modules_bound = {"self", "cls"}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            modules_bound |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            modules_bound |= {a.asname or a.name for a in node.names}
+    return [f"line {node.lineno}: {node.value.id}.{node.attr}" for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__")
+            and isinstance(node.value, ast.Name) and node.value.id not in modules_bound]
+
+
+def test_the_private_member_check_finds_one():
+    assert private_members_used("import os\nx = other._secret + self._mine + os._exit\n") == [
+        "line 2: other._secret"]
+
+
+def test_no_private_member_of_another_object_is_used():
+    found = {name: hits for name, path in modules().items()
+             if (hits := private_members_used(Path(path).read_text(encoding="utf-8")))}
+    assert found == {}
+
+
 def test_no_core_source_file_over_600_lines():
     sizes = {p.relative_to(CORE).as_posix(): len(p.read_text(encoding="utf-8").splitlines())
              for p in CORE.rglob("*.rs")}

@@ -99,7 +99,7 @@ def changed(potential) -> None:
 
 def built_potential(potential, n: int):
     """The potential on n coordinates (its own order), built once and kept while it lives."""
-    return _built(potential, (n, _VERSIONS.get(potential, 0)), lambda: potential._spec(n))
+    return _built(potential, (n, _VERSIONS.get(potential, 0)), lambda: potential.describe(n))
 
 
 def problem_potential(problem, lay: CoreLayout):
@@ -158,7 +158,7 @@ def method_spec(co, lay: CoreLayout, fast: np.ndarray) -> dict:
 
 def potential_spec(potential, lay: CoreLayout) -> dict:
     """The potential's description, with its inputs taken from the core's coordinates."""
-    spec = potential._spec(lay.perm.size)
+    spec = potential.describe(lay.perm.size)
     if lay.basis is not None:
         return _modal_spec(spec, lay.basis, potential)
     return spec if lay.identity else _permute_spec(spec, lay, potential)
@@ -167,9 +167,9 @@ def potential_spec(potential, lay: CoreLayout) -> dict:
 def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
     """U(Qx) for U(q): Q composed into the potential's input maps (a program's, each chain
     term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U. A potential
-    whose own coordinates are the modal ones (Q is the T of its `_own_coordinates()`) runs
+    whose own coordinates are the modal ones (Q is the T of its `own_coordinates()`) runs
     with no map."""
-    own = potential._own_coordinates()
+    own = potential.own_coordinates()
     if own is not None and own[0].shape == basis.shape and np.array_equal(own[0], basis):
         return own[1]
     kind = spec["kind"]
@@ -217,7 +217,7 @@ def _permute_spec(spec: dict, lay: CoreLayout, potential) -> dict:
     if kind == "fpu":
         if spec.get("map") is not None:
             return {**spec, "map": _permute_map(spec["map"], inv)}
-        return _permute_spec(potential._program_spec(), lay, potential)
+        return _permute_spec(potential.program_description(), lay, potential)
     if kind == "program":
         out = dict(spec)
         if spec.get("map") is not None:

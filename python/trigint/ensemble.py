@@ -341,9 +341,9 @@ def _check_sendable(client, potential, spec: dict) -> None:
     except Exception as exc:  # pickle raises PicklingError, AttributeError, TypeError, ...
         error = exc
     try:
-        pickler.dumps((potential._value, potential._gradient))
+        pickler.dumps((potential.value_function, potential.gradient_function))
     except Exception as exc:
-        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in (potential._value, potential._gradient))
+        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in (potential.value_function, potential.gradient_function))
         raise TypeError(
             f"potential: the PythonPotential's functions ({names}) cannot be pickled ({exc}), and {where}. "
             "Define value and gradient with def at module level in a module the workers can import, run "
@@ -410,9 +410,9 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
 
 
 def _potential_key(potential) -> str:
-    spec = potential._spec(potential.dim or 0)
+    spec = potential.describe(potential.dim or 0)
     if spec["kind"] == "python":  # callables: by name, the best a fingerprint can do
-        names = (getattr(f, "__qualname__", "?") for f in (potential._value, potential._gradient))
+        names = (getattr(f, "__qualname__", "?") for f in (potential.value_function, potential.gradient_function))
         return "python:" + ":".join(names)
     return repr(spec)
 

@@ -47,14 +47,21 @@ class Potential(ABC):
     dim: int | None = None
 
     @abstractmethod
-    def _spec(self, n: int) -> dict:
-        """The description handed to the core for a state of n coordinates (user order)."""
+    def describe(self, n: int) -> dict:
+        """The description the core builds the potential from (``{"kind": …}``), for a state of
+        n coordinates in their own order; plain data (and, for Python potentials, the callables).
 
-    def _own_coordinates(self) -> tuple[np.ndarray, dict] | None:
-        """(T, spec): an orthogonal T (q = T x) in whose coordinates x this potential is native,
-        with its description in x; None for most potentials. When T diagonalizes a problem's
-        stiffness matrix it is taken as the modal basis, and the kernel evaluates the potential
-        in x with no map at all."""
+        Parameters
+        ----------
+        n : int
+            The number of coordinates.
+        """
+
+    def own_coordinates(self) -> tuple[np.ndarray, dict] | None:
+        """(T, description): an orthogonal T (q = T x) in whose coordinates x this potential is
+        native, with its description in x; None for most potentials. When T diagonalizes a
+        problem's stiffness matrix it is taken as the modal basis, and the kernel evaluates the
+        potential in x with no map at all."""
         return None
 
     def check_dim(self, n: int) -> None:
@@ -185,15 +192,15 @@ class FPUPotential(Potential):
             return None
         return _csr_map(fpu_original_basis(self.m).T, self.dim)
 
-    def _spec(self, n: int) -> dict:
+    def describe(self, n: int) -> dict:
         return {"kind": "fpu", "m": self.m, "map": self._map()}
 
-    def _own_coordinates(self) -> tuple[np.ndarray, dict] | None:
+    def own_coordinates(self) -> tuple[np.ndarray, dict] | None:
         if self.coordinates == "diagonal":
             return None
         return fpu_original_basis(self.m), {"kind": "fpu", "m": self.m, "map": None}
 
-    def _program_spec(self) -> dict:
+    def program_description(self) -> dict:
         """The same U as a compiled program (for coordinate orders the native code does not
         know)."""
         return {"kind": "program", **fpu_tape(self.m), "map": self._map()}
@@ -288,7 +295,7 @@ class ExpressionPotential(Potential):
         # Compiled here, so that an invalid program fails at construction, not at the first step.
         self.instructions = _native.instructions(self, self.dim)
 
-    def _spec(self, n: int) -> dict:
+    def describe(self, n: int) -> dict:
         return {"kind": "program", **self._tape, "map": None}
 
     def __repr__(self) -> str:
@@ -369,7 +376,7 @@ class PolynomialPotential(Potential):
             raise ValueError(f"expr: not a polynomial in {[str(s) for s in coords]}")
         return ExpressionPotential(e, coords)
 
-    def _spec(self, n: int) -> dict:
+    def describe(self, n: int) -> dict:
         return {"kind": "program", **self._tape, "map": None}
 
     def __repr__(self) -> str:
@@ -471,7 +478,7 @@ class ChainPotential(Potential):
         _native.instructions(self, self.dim)  # compile now: errors here, not later
         return self
 
-    def _spec(self, n: int) -> dict:
+    def describe(self, n: int) -> dict:
         if not self.terms:
             raise ValueError("ChainPotential: no terms; add some with .add(v, variable, pairs=...)")
         return {"kind": "chain", "n": self.dim, "terms": list(self.terms)}
@@ -538,6 +545,13 @@ class PythonPotential(Potential):
         Whether the callables take a block of trajectories (``ensemble()`` only calls them
         that way; ``integrate()`` passes a block of one row).
 
+    Attributes
+    ----------
+    value_function, gradient_function : callable
+        The callables as given.
+    vectorized : bool
+        Whether they take a block of trajectories.
+
     Examples
     --------
     >>> import numpy as np, trigint as ti
@@ -562,14 +576,14 @@ class PythonPotential(Potential):
             raise TypeError("value and gradient must be callables taking an array q")
         if not isinstance(vectorized, bool):
             raise TypeError(f"vectorized: expected True or False, got {vectorized!r}")
-        self._value, self._gradient = value, gradient
+        self.value_function, self.gradient_function = value, gradient
         self.dim = None if dim is None else _count(dim, "dim")
         self.vectorized = vectorized
 
-    def _spec(self, n: int) -> dict:
-        return {"kind": "python", "n": n, "value": self._value, "gradient": self._gradient,
+    def describe(self, n: int) -> dict:
+        return {"kind": "python", "n": n, "value": self.value_function, "gradient": self.gradient_function,
                 "vectorized": self.vectorized}
 
     def __repr__(self) -> str:
         kind = ", vectorized" if self.vectorized else ""
-        return f"PythonPotential({getattr(self._value, '__name__', 'value')}{kind})"
+        return f"PythonPotential({getattr(self.value_function, '__name__', 'value')}{kind})"

@@ -119,7 +119,7 @@ class OscillatoryProblem:
             self.path = "dense"
             a = _stiffness.dense_stiffness(stiffness)
             _check_potential(potential, a.shape[0])
-            own = potential._own_coordinates()
+            own = potential.own_coordinates()
             modal = _stiffness.diagonalize(a, slow_tolerance, equal_tolerance, None if own is None else own[0])
             a.setflags(write=False)
             self.stiffness, self.basis = a, modal.basis

@@ -55,7 +55,7 @@ class WavePotential(Potential):
         self.dim = int(np.prod(shape))
         self._tape = tape
 
-    def _spec(self, n: int) -> dict:
+    def describe(self, n: int) -> dict:
         return {"kind": "wave", "shape": list(self.shape), "v": self._tape,
                 "order": [int(i) for i in self.order]}
 
