@@ -187,6 +187,8 @@ def test_ensemble_lanes_equal_integrate_bit_for_bit():
         assert np.array_equal(ds["energies"].values[t][kept][:, 0], sol.energies["total"].values)
         assert np.array_equal(ds["energies"].values[t][kept][:, -1], sol.energies["momentum"].values[:, 0])
         assert np.array_equal(ds["max_deviation"].values[t], np.array(list(sol.max_deviation.values())))
+        assert np.array_equal(ds["action"].values[t][kept], sol.energies["action"].values)
+        assert np.array_equal(ds["action"].wavenumber.values, sol.energies["action"].wavenumber.values)
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [

@@ -153,7 +153,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         interrupted = True
     finally:
         bar.close()
-    ds = _assemble(problem, method, batch, names, spans, results, stored, save_every)
+    ds = problem.ensemble_dataset(_assemble(problem, method, batch, names, spans, results, stored, save_every))
     if interrupted:
         finished = int((ds.status == "completed").sum())
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
@@ -343,7 +343,8 @@ def _check_sendable(client, potential, spec: dict) -> None:
     try:
         pickler.dumps((potential.value_function, potential.gradient_function))
     except Exception as exc:
-        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in (potential.value_function, potential.gradient_function))
+        functions = (potential.value_function, potential.gradient_function)
+        names = ", ".join(getattr(f, "__qualname__", repr(f)) for f in functions)
         raise TypeError(
             f"potential: the PythonPotential's functions ({names}) cannot be pickled ({exc}), and {where}. "
             "Define value and gradient with def at module level in a module the workers can import, run "

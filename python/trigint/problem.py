@@ -190,6 +190,17 @@ class OscillatoryProblem:
         return xr.Dataset({name: ("t", energies[:, k]) for k, name in enumerate(names)}, coords=coords,
                           attrs=attrs)
 
+    def ensemble_dataset(self, ds):
+        """An ensemble's Dataset as the problem presents it: here unchanged (a wave problem adds
+        its actions over modes).
+
+        Parameters
+        ----------
+        ds : xarray.Dataset
+            What :func:`trigint.ensemble` assembled.
+        """
+        return ds
+
     def require_spectrum(self, what: str) -> None:
         """Raises ValueError for a problem on the Krylov path, whose eigenvectors are never formed.
 

@@ -244,15 +244,37 @@ class WaveProblem(OscillatoryProblem):
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
         d = len(self.shape)
-        j = self.modes[self.action_modes].reshape(-1, d)
-        # the wavenumber j in 1-D (|j| in 2-D/3-D), and the components as j0, j1, j2
-        mode_coords = {"mode": np.arange(self.action_modes.size),
-                       "wavenumber": ("mode", j[:, 0] if d == 1 else np.sqrt(np.sum(j.astype(float) ** 2, axis=1))),
-                       **{f"j{a}": ("mode", j[:, a]) for a in range(d)},
-                       "omega": ("mode", self.mode_frequencies[self.action_modes])}
+        mode_coords = self._mode_coords()
         data = {**whole, **momentum,
                 "action": (("t", "mode"), actions)}
         return xr.Dataset(data, coords={**coords, **mode_coords, "axis": np.arange(d)}, attrs=attrs)
+
+    def _mode_coords(self) -> dict:
+        d = len(self.shape)
+        j = self.modes[self.action_modes].reshape(-1, d)
+        # the wavenumber j in 1-D (|j| in 2-D/3-D), and the components as j0, j1, j2
+        return {"mode": np.arange(self.action_modes.size),
+                "wavenumber": ("mode", j[:, 0] if d == 1 else np.sqrt(np.sum(j.astype(float) ** 2, axis=1))),
+                **{f"j{a}": ("mode", j[:, a]) for a in range(d)},
+                "omega": ("mode", self.mode_frequencies[self.action_modes])}
+
+    def ensemble_dataset(self, ds: xr.Dataset) -> xr.Dataset:
+        """An ensemble's Dataset with the actions of `action_modes`: ``action`` over
+        (trajectory, sample, mode) when samples were kept, and ``action_max_deviation`` over
+        (trajectory, mode).
+
+        Parameters
+        ----------
+        ds : xarray.Dataset
+            What :func:`trigint.ensemble` assembled.
+        """
+        names = list(ds.energy.values)
+        blocks = [names.index(f"oscillatory_{b + 1}") for b in self.action_modes]
+        omega = self.mode_frequencies[self.action_modes]
+        extra = {"action_max_deviation": (("trajectory", "mode"), ds.max_deviation.values[:, blocks] / omega)}
+        if "energies" in ds:
+            extra["action"] = (("trajectory", "sample", "mode"), ds.energies.values[..., blocks] / omega)
+        return ds.assign(extra).assign_coords(self._mode_coords())
 
     def __repr__(self) -> str:
         return (f"WaveProblem(grid {self.shape}, rho={self.rho:g}, {self.modes.shape[0]} modes, "
