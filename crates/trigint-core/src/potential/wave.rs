@@ -22,6 +22,8 @@ pub struct Wave {
     v: Program,
     /// Kernel coordinate k is Fourier coordinate `order[k]` of [`Spectral::slots`].
     order: Vec<usize>,
+    /// `order` is the identity (a problem ordered as the grid's coordinates): plain copies.
+    identity: bool,
 }
 
 pub struct WaveWorkspace {
@@ -59,12 +61,39 @@ impl Wave {
         Ok(Wave {
             v: Program::new(v, None)?,
             grid,
+            identity: order.iter().enumerate().all(|(k, &i)| k == i),
             order,
         })
     }
 
     pub fn grid(&self) -> &Spectral {
         &self.grid
+    }
+
+    /// Lane b of the kernel's state into the Fourier buffer.
+    fn gather<L: Real>(&self, x: &[L], b: usize, fourier: &mut [f64]) {
+        if L::LANES == 1 && self.identity {
+            if let Some(flat) = L::as_f64s(x) {
+                fourier.copy_from_slice(flat);
+                return;
+            }
+        }
+        for (k, &i) in self.order.iter().enumerate() {
+            fourier[i] = x[k].lane(b);
+        }
+    }
+
+    /// The Fourier buffer into lane b of the kernel's force.
+    fn scatter<L: Real>(&self, fourier: &[f64], b: usize, force: &mut [L]) {
+        if L::LANES == 1 && self.identity {
+            if let Some(flat) = L::as_f64s_mut(force) {
+                flat.copy_from_slice(fourier);
+                return;
+            }
+        }
+        for (k, &i) in self.order.iter().enumerate() {
+            force[k].set_lane(b, fourier[i]);
+        }
     }
 
     /// U of one trajectory whose Fourier coordinates are in `ws.fourier`; −V' on the grid into
@@ -116,16 +145,12 @@ impl Potential for Wave {
         let mut value = L::zero();
         let scale = 1.0 / self.grid.points() as f64;
         for b in 0..L::LANES {
-            for (k, &i) in self.order.iter().enumerate() {
-                ws.fourier[i] = x[k].lane(b);
-            }
+            self.gather(x, b, &mut ws.fourier);
             value.set_lane(b, self.on_grid(true, with_value, ws));
             // g = (1/N) Sᵀ(−V'(u)); the Fourier buffer takes the result.
             self.grid
                 .transpose(&mut ws.g, &mut ws.fourier, scale, &mut ws.fft);
-            for (k, &i) in self.order.iter().enumerate() {
-                force[k].set_lane(b, ws.fourier[i]);
-            }
+            self.scatter(&ws.fourier, b, force);
         }
         Ok(value)
     }
@@ -133,9 +158,7 @@ impl Potential for Wave {
     fn value<L: Real>(&self, x: &[L], ws: &mut WaveWorkspace) -> CoreResult<L> {
         let mut value = L::zero();
         for b in 0..L::LANES {
-            for (k, &i) in self.order.iter().enumerate() {
-                ws.fourier[i] = x[k].lane(b);
-            }
+            self.gather(x, b, &mut ws.fourier);
             value.set_lane(b, self.on_grid(false, true, ws));
         }
         Ok(value)
