@@ -210,8 +210,7 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
                       RuntimeWarning, stacklevel=3)
     steps = samples["steps"].astype(np.int64)
     t = steps * h
-    energies = problem.energy_dataset(names, samples["energies"], samples["q"], samples["p"],
-                                      coords={"t": t, "step": ("t", steps)},
+    energies = problem.energy_dataset(names, samples["energies"], coords={"t": t, "step": ("t", steps)},
                                       attrs={"method": repr(method), "h": h})
     status, message = out.status[0], out.messages[0]
     if status != "completed":

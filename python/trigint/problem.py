@@ -170,8 +170,7 @@ class OscillatoryProblem:
         """
         return x
 
-    def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
-                       coords: dict, attrs: dict):
+    def energy_dataset(self, names: list[str], energies: np.ndarray, coords: dict, attrs: dict):
         """The energies at the samples as an xarray Dataset, one variable per channel over ``t``.
 
         Parameters
@@ -180,8 +179,6 @@ class OscillatoryProblem:
             The channels, in the order of the columns of `energies`.
         energies : array, shape (samples, channels)
             The streamed energies at the samples.
-        q, p : array, shape (samples, n)
-            The sampled states (a wave problem computes its momentum from them).
         coords, attrs : dict
             The Dataset's coordinates (``t``, ``step``) and attributes.
         """

@@ -219,8 +219,7 @@ class WaveProblem(OscillatoryProblem):
         w = f["weights"].reshape(len(self.shape), -1)
         return (q[..., a] * p[..., b] - q[..., b] * p[..., a]) @ w.T
 
-    def energy_dataset(self, names: list[str], energies: np.ndarray, q: np.ndarray, p: np.ndarray,
-                       coords: dict, attrs: dict) -> xr.Dataset:
+    def energy_dataset(self, names: list[str], energies: np.ndarray, coords: dict, attrs: dict) -> xr.Dataset:
         """The wave's energies at the samples: H (``total``), H_ω, ``slow``, H*_ω, the
         ``momentum`` (over ``axis``, streamed) and the ``action`` J_j over (t, mode) for
         `action_modes`.
@@ -231,8 +230,6 @@ class WaveProblem(OscillatoryProblem):
             The channels, in the order of the columns of `energies`.
         energies : array, shape (samples, channels)
             The streamed channels at the samples.
-        q, p : array, shape (samples, N)
-            The sampled grid values (unused: every channel is streamed).
         coords, attrs : dict
             The Dataset's coordinates (``t``, ``step``) and attributes.
         """
@@ -243,11 +240,9 @@ class WaveProblem(OscillatoryProblem):
         first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
-        d = len(self.shape)
-        mode_coords = self._mode_coords()
-        data = {**whole, **momentum,
-                "action": (("t", "mode"), actions)}
-        return xr.Dataset(data, coords={**coords, **mode_coords, "axis": np.arange(d)}, attrs=attrs)
+        data = {**whole, **momentum, "action": (("t", "mode"), actions)}
+        return xr.Dataset(data, coords={**coords, **self._mode_coords(), "axis": np.arange(len(self.shape))},
+                          attrs=attrs)
 
     def _mode_coords(self) -> dict:
         d = len(self.shape)
