@@ -220,3 +220,13 @@ def test_bad_initial_data_and_resonant_step_sizes_are_refused():
     # ρ = 0: ω_2 = 2, so h = π/2 puts hω_2 on π, where sinc(hω) of the two-step form vanishes
     with pytest.raises(ValueError, match="multiples of pi"):
         ti.integrate(prob, "B", u0, v0, h=np.pi / 2, n_steps=1)
+
+
+def test_energies_of_given_grid_states_match_the_streamed_ones():
+    prob = ti.problems.wave((8, 6), rho=1.0, potential="u**4/4")
+    u0, v0 = smooth_data((8, 6), seed=7)
+    sol = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=10, save_every=10)
+    e = ti.energies(prob, sol.q, sol.p)
+    assert np.allclose(e["total"].values, sol.energies["total"].values, rtol=1e-14)
+    action = sol.energies["action"].isel(mode=2)  # block 3
+    assert np.allclose(e["oscillatory_3"].values, action.values * float(action.omega), rtol=1e-13)
