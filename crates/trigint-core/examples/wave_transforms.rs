@@ -47,7 +47,7 @@ fn main() {
     );
 }
 
-#[allow(dead_code)]
+/// r2c and c2r of realfft alone, for comparison with the transforms around them.
 fn raw(n: usize) {
     use realfft::RealFftPlanner;
     let mut p = RealFftPlanner::<f64>::new();

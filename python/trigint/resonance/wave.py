@@ -104,11 +104,11 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     index = {tuple(int(c) for c in m): b for b, m in enumerate(modes)}
 
     def lookup(j):
-        key = tuple(int(c) for c in j)
-        if key in index:
-            return index[key], key
-        neg = tuple(-c for c in key)
-        return index.get(neg), neg if neg in index else None
+        """The block of wavevector j (stored as j or as −j) and the stored wavevector, or (None, None)."""
+        for key in (tuple(int(c) for c in j), tuple(-int(c) for c in j)):
+            if key in index:
+                return index[key], key
+        return None, None
 
     shape = np.asarray(problem.shape)
     for a in range(low):
