@@ -211,6 +211,43 @@ impl<L: Real, S: Storage<L>> Coef<L, S> {
     }
 }
 
+/// Lane b of a row of bundle numbers, as one trajectory's row.
+#[inline(always)]
+fn lane_row<L: Real, S: Storage<L>, T: Storage<f64>>(row: &S, b: usize) -> T {
+    let v = row.get();
+    let mut t = T::filled(v.len(), 0.0);
+    for (x, y) in t.get_mut().iter_mut().zip(v) {
+        *x = y.lane(b);
+    }
+    t
+}
+
+impl<L: Real, S: Storage<L>> Coef<L, S> {
+    /// Lane b's numbers as one trajectory's (for the lane loop, which runs each lane's step in
+    /// `f64`: inlined, only the numbers the step reads are loaded).
+    #[inline(always)]
+    pub fn lane<T: Storage<f64>>(&self, b: usize) -> Coef<f64, T> {
+        Coef {
+            h: self.h.lane(b),
+            h2: self.h2.lane(b),
+            half_h2: self.half_h2.lane(b),
+            inv_2h: self.inv_2h.lane(b),
+            half_h: self.half_h.lane(b),
+            omc: lane_row(&self.omc, b),
+            two_omc: lane_row(&self.two_omc, b),
+            h2_psi: lane_row(&self.h2_psi, b),
+            half_h2_psi: lane_row(&self.half_h2_psi, b),
+            phi: lane_row(&self.phi, b),
+            inv_2h_chi: lane_row(&self.inv_2h_chi, b),
+            h_chi: lane_row(&self.h_chi, b),
+            p_from_q: lane_row(&self.p_from_q, b),
+            half_h_psi0: lane_row(&self.half_h_psi0, b),
+            half_h_psi1: lane_row(&self.half_h_psi1, b),
+            phi_is_identity: self.phi_is_identity,
+        }
+    }
+}
+
 impl<L: Real, S: Storage<L>> Weights<L, S> {
     pub fn new<Sh: Shape<S<L> = S>>(
         sh: &Sh,
@@ -226,6 +263,18 @@ impl<L: Real, S: Storage<L>> Weights<L, S> {
             modified_p: row::<L, Sh>(sh, methods, &|m, i| m.modified_p[i]),
             modified_q: row::<L, Sh>(sh, methods, &|m, i| m.modified_q[i]),
             plain_modified,
+            _lane: std::marker::PhantomData,
+        }
+    }
+
+    /// Lane b's weights as one trajectory's (see [`Coef::lane`]).
+    #[inline(always)]
+    pub fn lane<T: Storage<f64>>(&self, b: usize) -> Weights<f64, T> {
+        Weights {
+            omega2: lane_row(&self.omega2, b),
+            modified_p: lane_row(&self.modified_p, b),
+            modified_q: lane_row(&self.modified_q, b),
+            plain_modified: self.plain_modified,
             _lane: std::marker::PhantomData,
         }
     }

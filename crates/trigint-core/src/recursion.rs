@@ -71,6 +71,7 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
         }
     }
 
+    #[inline(always)]
     pub fn new(sh: &Sh) -> Self {
         let z = || Sh::S::<L>::filled(sh.n(), L::zero());
         State {

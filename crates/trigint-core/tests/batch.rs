@@ -309,3 +309,44 @@ fn a_stop_request_interrupts_every_unfinished_trajectory() {
         assert_eq!(o.samples.q.len() / n, o.samples.steps.len());
     }
 }
+
+/// FPU, m = 3, in bundles whose steps run lane by lane (a compile-time shape): lanes of two
+/// methods, ψ = φ = sinc (φ applied, H* ≠ H_ω summed) and method B, at amplitudes from small to
+/// large, the large ones beyond what Störmer–Verlet on the soft springs survives at this step
+/// size. Every compile-time variant of the lane loop, and its blow-up test, against single runs.
+#[test]
+fn fpu_lanes_of_two_filters_and_blow_ups_equal_single_runs() {
+    let h = 2.0 * std::f64::consts::PI / 3.0 / 50.0;
+    let (_, lay, q0, p0) = fpu_method_b(3, 50.0, h);
+    let omega = [0.0, 0.0, 0.0, 50.0, 50.0, 50.0];
+    let count = 11;
+    let case = Case {
+        pot: Fpu::new(3).unwrap(),
+        lay,
+        methods: (0..count)
+            .map(|t| {
+                if t % 2 == 0 {
+                    trigonometric(h, &omega, sinc, sinc)
+                } else {
+                    fpu_method_b(3, 50.0, h).0
+                }
+            })
+            .collect(),
+        q0: (0..count)
+            .flat_map(|t| q0.iter().map(move |x| x * (1.0 + 2.5 * t as f64)))
+            .collect(),
+        p0: (0..count).flat_map(|_| p0.clone()).collect(),
+        n_steps: vec![3000; count],
+    };
+    for track in [true, false] {
+        let rec = Record {
+            save_every: Some(500),
+            track,
+        };
+        check_against_single(&case, Form::TwoStep, rec);
+        let out = case.batch::<Lanes<8>>(&(0..count).collect::<Vec<_>>(), Form::TwoStep, rec, 1);
+        let status: Vec<Status> = out.iter().map(|o| o.status).collect();
+        assert_eq!(status[0], Status::Completed, "{status:?}");
+        assert_eq!(status[count - 1], Status::BlowUp, "{status:?}");
+    }
+}

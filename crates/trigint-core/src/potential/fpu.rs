@@ -194,6 +194,21 @@ pub struct FpuWorkspace<L> {
 
 impl Potential for Fpu {
     type Workspace<L: Real> = FpuWorkspace<L>;
+    const LANE_LOOP: bool = true;
+
+    fn lane_force_ready(&self) -> bool {
+        self.map.is_none() && self.m <= SHORT
+    }
+
+    #[inline(always)]
+    fn lane_force(&self, x: &[f64], f: &mut [f64], with_value: bool) -> f64 {
+        // `chain` without a map, on a short chain: the same operations.
+        if with_value {
+            Self::short::<f64, true>(x, f)
+        } else {
+            Self::short::<f64, false>(x, f)
+        }
+    }
 
     fn dim(&self) -> usize {
         self.map.as_ref().map_or(2 * self.m, |map| map.cols)

@@ -37,6 +37,25 @@ pub trait Potential: Sync {
     /// ones: fewer copies of the kernels to build).
     const SMALL_SHAPES: bool = Self::SPECIALIZE;
 
+    /// Whether this kind has a [`lane_force`](Self::lane_force): then a bundle's steps on a
+    /// compile-time shape may run as a loop over its lanes, each lane's step in `f64`, which the
+    /// compiler vectorizes across the lanes (see `run::lanes`).
+    const LANE_LOOP: bool = false;
+
+    /// Whether [`lane_force`](Self::lane_force) serves this potential as it is configured.
+    fn lane_force_ready(&self) -> bool {
+        false
+    }
+
+    /// One trajectory's g(x) into `f`, and U(x) when `with_value`: [`force`](Self::force)'s
+    /// numbers, bit for bit, written as arithmetic that inlines, with no call and no branch on
+    /// the potential's settings (a loop over lanes is vectorized only then). Called only when
+    /// [`lane_force_ready`](Self::lane_force_ready).
+    #[inline(always)]
+    fn lane_force(&self, _x: &[f64], _f: &mut [f64], _with_value: bool) -> f64 {
+        unreachable!("lane_force of a potential without one")
+    }
+
     /// Number of coordinates.
     fn dim(&self) -> usize;
 

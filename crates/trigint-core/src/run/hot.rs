@@ -62,6 +62,9 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         n: u64,
         e: u64,
     ) -> CoreResult<Option<u64>> {
+        if TWO_STEP && Sh::FIXED && P::LANE_LOOP && L::LANES > 1 && self.has_lane_loop() {
+            return self.lane_loop::<TRACK, PLAIN, PHI>(n, e);
+        }
         let mut kernel = HotLoop::<L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI> {
             sh: self.sh,
             pot: self.pot,

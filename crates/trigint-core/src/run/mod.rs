@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 mod bundle;
 mod hot;
+mod lanes;
 mod record;
 
 use crate::coefficients::MethodCoefficients;
