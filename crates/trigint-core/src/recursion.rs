@@ -88,8 +88,10 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
 }
 
 /// The force g(φq) of the state's q into its `f`, and U(q) into `u` when `with_value`.
-/// `phi_is_identity` is the coefficients' flag, passed as a constant where the caller knows it.
+/// `phi_is_identity` is the coefficients' flag, passed as a constant where the caller knows it;
+/// `inline` takes the potential's [`inline_force`](Potential::inline_force) (the same numbers).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate<L: Real, Sh: Shape, P: Potential>(
     sh: &Sh,
     pot: &P,
@@ -98,15 +100,28 @@ pub fn evaluate<L: Real, Sh: Shape, P: Potential>(
     st: &mut State<L, Sh>,
     with_value: bool,
     phi_is_identity: bool,
+    inline: bool,
 ) -> CoreResult<()> {
     if phi_is_identity {
-        st.u = pot.force(st.q.get(), st.f.get_mut(), with_value, ws)?;
-    } else {
-        let (q, x, phi) = (st.q.get(), st.x.get_mut(), k.phi.get());
-        x[..sh.ns()].copy_from_slice(&q[..sh.ns()]);
-        for i in sh.ns()..sh.n() {
-            x[i] = at(phi, sh.coef(i)) * q[i];
+        st.u = if inline {
+            pot.inline_force(st.q.get(), st.f.get_mut(), with_value)
+        } else {
+            pot.force(st.q.get(), st.f.get_mut(), with_value, ws)?
+        };
+        return Ok(());
+    }
+    let (q, x, phi) = (st.q.get(), st.x.get_mut(), k.phi.get());
+    x[..sh.ns()].copy_from_slice(&q[..sh.ns()]);
+    for i in sh.ns()..sh.n() {
+        x[i] = at(phi, sh.coef(i)) * q[i];
+    }
+    if inline {
+        pot.inline_force(st.x.get(), st.f.get_mut(), false);
+        if with_value {
+            // U as `value` gives it: a force pass at q, its forces (into φq's scratch) unused.
+            st.u = pot.inline_force(st.q.get(), st.x.get_mut(), true);
         }
+    } else {
         pot.force(st.x.get(), st.f.get_mut(), false, ws)?;
         if with_value {
             st.u = pot.value(st.q.get(), ws)?;

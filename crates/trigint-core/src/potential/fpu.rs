@@ -194,19 +194,19 @@ pub struct FpuWorkspace<L> {
 
 impl Potential for Fpu {
     type Workspace<L: Real> = FpuWorkspace<L>;
-    const LANE_LOOP: bool = true;
+    const INLINE_FORCE: bool = true;
 
-    fn lane_force_ready(&self) -> bool {
+    fn inline_force_ready(&self) -> bool {
         self.map.is_none() && self.m <= SHORT
     }
 
     #[inline(always)]
-    fn lane_force(&self, x: &[f64], f: &mut [f64], with_value: bool) -> f64 {
+    fn inline_force<L: Real>(&self, x: &[L], f: &mut [L], with_value: bool) -> L {
         // `chain` without a map, on a short chain: the same operations.
         if with_value {
-            Self::short::<f64, true>(x, f)
+            Self::short::<L, true>(x, f)
         } else {
-            Self::short::<f64, false>(x, f)
+            Self::short::<L, false>(x, f)
         }
     }
 

@@ -37,23 +37,24 @@ pub trait Potential: Sync {
     /// ones: fewer copies of the kernels to build).
     const SMALL_SHAPES: bool = Self::SPECIALIZE;
 
-    /// Whether this kind has a [`lane_force`](Self::lane_force): then a bundle's steps on a
-    /// compile-time shape may run as a loop over its lanes, each lane's step in `f64`, which the
-    /// compiler vectorizes across the lanes (see `run::lanes`).
-    const LANE_LOOP: bool = false;
+    /// Whether this kind has an [`inline_force`](Self::inline_force), which the kernels of
+    /// compile-time shapes then use: the state stays in registers (a call that may take it by
+    /// reference puts it in memory), and a bundle's steps run as a loop over its lanes that the
+    /// compiler vectorizes (see `run::lanes`).
+    const INLINE_FORCE: bool = false;
 
-    /// Whether [`lane_force`](Self::lane_force) serves this potential as it is configured.
-    fn lane_force_ready(&self) -> bool {
+    /// Whether [`inline_force`](Self::inline_force) serves this potential as it is configured.
+    fn inline_force_ready(&self) -> bool {
         false
     }
 
-    /// One trajectory's g(x) into `f`, and U(x) when `with_value`: [`force`](Self::force)'s
-    /// numbers, bit for bit, written as arithmetic that inlines, with no call and no branch on
-    /// the potential's settings (a loop over lanes is vectorized only then). Called only when
-    /// [`lane_force_ready`](Self::lane_force_ready).
+    /// g(x) into `f`, and U(x) when `with_value`: [`force`](Self::force)'s numbers, bit for
+    /// bit (and with `with_value`, the U of [`value`](Self::value)), written as arithmetic that
+    /// inlines, with no call and no branch on the potential's settings. Called only when
+    /// [`inline_force_ready`](Self::inline_force_ready).
     #[inline(always)]
-    fn lane_force(&self, _x: &[f64], _f: &mut [f64], _with_value: bool) -> f64 {
-        unreachable!("lane_force of a potential without one")
+    fn inline_force<L: Real>(&self, _x: &[L], _f: &mut [L], _with_value: bool) -> L {
+        unreachable!("inline_force of a potential without one")
     }
 
     /// Number of coordinates.

@@ -189,6 +189,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             &mut self.st,
             with_value,
             phi,
+            false,
         )
     }
 

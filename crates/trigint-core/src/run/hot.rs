@@ -62,10 +62,29 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         n: u64,
         e: u64,
     ) -> CoreResult<Option<u64>> {
-        if TWO_STEP && Sh::FIXED && P::LANE_LOOP && L::LANES > 1 && self.has_lane_loop() {
+        if TWO_STEP && Sh::FIXED && P::INLINE_FORCE && L::LANES > 1 && self.has_lane_loop() {
             return self.lane_loop::<TRACK, PLAIN, PHI>(n, e);
         }
-        let mut kernel = HotLoop::<L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI> {
+        // The inline force where there is one (compile-time shapes only: their state lives in
+        // registers, which a call that may take it by reference would put in memory).
+        if Sh::FIXED && P::INLINE_FORCE && self.pot.inline_force_ready() {
+            return self.hot_loop::<TWO_STEP, TRACK, PLAIN, PHI, true>(n, e);
+        }
+        self.hot_loop::<TWO_STEP, TRACK, PLAIN, PHI, false>(n, e)
+    }
+
+    fn hot_loop<
+        const TWO_STEP: bool,
+        const TRACK: bool,
+        const PLAIN: bool,
+        const PHI: bool,
+        const INLINE: bool,
+    >(
+        &mut self,
+        n: u64,
+        e: u64,
+    ) -> CoreResult<Option<u64>> {
+        let mut kernel = HotLoop::<L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI, INLINE> {
             sh: self.sh,
             pot: self.pot,
             ws: &mut self.ws,
@@ -97,6 +116,7 @@ struct HotLoop<
     const TRACK: bool,
     const PLAIN: bool,
     const PHI: bool,
+    const INLINE: bool,
 > {
     sh: &'a Sh,
     pot: &'a P,
@@ -121,7 +141,8 @@ impl<
         const TRACK: bool,
         const PLAIN: bool,
         const PHI: bool,
-    > crate::isa::Kernel for HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI>
+        const INLINE: bool,
+    > crate::isa::Kernel for HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI, INLINE>
 {
     type Output = CoreResult<Option<u64>>;
     const WIDE: bool = P::SPECIALIZE;
@@ -147,7 +168,8 @@ impl<
         const TRACK: bool,
         const PLAIN: bool,
         const PHI: bool,
-    > HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI>
+        const INLINE: bool,
+    > HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI, INLINE>
 {
     #[inline(always)]
     fn steps(&mut self, st: &mut State<L, Sh>, ext: &mut Extremes<L>) -> CoreResult<Option<u64>> {
@@ -170,7 +192,7 @@ impl<
         let zero = L::zero();
         for j in n..e {
             let sums = if TWO_STEP {
-                recursion::evaluate(sh, pot, ws, k, st, TRACK, phi)?;
+                recursion::evaluate(sh, pot, ws, k, st, TRACK, phi, INLINE)?;
                 let s = recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums);
                 if let (true, Some(f)) = (TRACK, pairs) {
                     f.evaluate(st.q.get(), st.p.get(), axes);
@@ -204,7 +226,7 @@ impl<
                 }
             }
             if !TWO_STEP {
-                recursion::evaluate(sh, pot, ws, k, st, TRACK || j + 1 == e, phi)?;
+                recursion::evaluate(sh, pot, ws, k, st, TRACK || j + 1 == e, phi, INLINE)?;
                 recursion::one_step_momentum(sh, k, st);
             }
             if j % CHECK == 0 || j + 1 == e {

@@ -27,8 +27,8 @@ impl<L: Real, Sh: Shape, P: Potential> Bundle<'_, L, Sh, P> {
         Sh::FIXED
             && L::LANES > 1
             && std::mem::size_of::<L>() == 8 * L::LANES
-            && P::LANE_LOOP
-            && self.pot.lane_force_ready()
+            && P::INLINE_FORCE
+            && self.pot.inline_force_ready()
             && self.pairs.is_none()
     }
 
@@ -77,6 +77,7 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         let width = L::LANES;
         let n_coords = sh.n();
         let mut guard = L::zero();
+        let mut ws = pot.workspace::<f64>();
         let (high, low) = (&mut self.ext.high, &mut self.ext.low);
         let (q, d) = (self.st.q.get_mut(), self.st.d.get_mut());
         let views = (
@@ -96,7 +97,18 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         );
         let guard_lanes = &mut guard_lanes[..width];
         for j in self.n..self.e {
-            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(sh, pot, k, w, q, d, high, low, guard_lanes);
+            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(
+                sh,
+                pot,
+                &mut ws,
+                k,
+                w,
+                q,
+                d,
+                high,
+                low,
+                guard_lanes,
+            );
             if j % CHECK == 0 || j + 1 == self.e {
                 // Tracked: the sticky sum of the total energies; else the positions.
                 let mut bad = LaneSet::EMPTY;
@@ -131,6 +143,7 @@ fn step_lanes<
 >(
     sh: &Sh,
     pot: &P,
+    ws: &mut P::Workspace<f64>,
     k: &Coef<L, Sh::S<L>>,
     w: &Weights<L, Sh::S<L>>,
     q: &mut [f64],
@@ -154,6 +167,8 @@ fn step_lanes<
             s.q.get_mut()[i] = at(q, i * width + b);
             s.d.get_mut()[i] = at(d, i * width + b);
         }
+        // The inline force never fails and uses no workspace.
+        let _ = ws;
         evaluate::<Sh, P, PHI>(sh, pot, &kb, &mut s, TRACK);
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
         let sums = recursion::two_step(sh, &kb, &wb, &mut s, obs, PLAIN, &mut []);
@@ -177,8 +192,6 @@ fn step_lanes<
     }
 }
 
-/// One lane's force g(φq) into `f`, and U(q) into `u` when `with_value`: the operations of
-/// [`recursion::evaluate`], through the potential's [`lane_force`](Potential::lane_force).
 #[inline(always)]
 fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
     sh: &Sh,
@@ -188,17 +201,16 @@ fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
     with_value: bool,
 ) {
     if PHI {
-        st.u = pot.lane_force(st.q.get(), st.f.get_mut(), with_value);
+        st.u = pot.inline_force(st.q.get(), st.f.get_mut(), with_value);
     } else {
         let (q, x, phi) = (st.q.get(), st.x.get_mut(), k.phi.get());
         x[..sh.ns()].copy_from_slice(&q[..sh.ns()]);
         for i in sh.ns()..sh.n() {
             x[i] = phi[sh.coef(i)] * q[i];
         }
-        pot.lane_force(st.x.get(), st.f.get_mut(), false);
+        pot.inline_force(st.x.get(), st.f.get_mut(), false);
         if with_value {
-            // U as `value` gives it: the force pass at q, its forces thrown away.
-            st.u = pot.lane_force(st.q.get(), st.q_next.get_mut(), true);
+            st.u = pot.inline_force(st.q.get(), st.x.get_mut(), true);
         }
     }
 }
