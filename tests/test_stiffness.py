@@ -336,8 +336,9 @@ def test_the_krylov_path_needs_no_dense_matrix_and_says_what_it_cannot_do():
     sol = ti.integrate(prob, "B", 0.1 * np.sin(np.pi * x), np.zeros(n), h=0.05, n_steps=5)
     assert sol.status == "completed" and sol.info["iterations_per_product"] > 1
     assert sol.max_deviation["total"] < 1e-3 * sol.initial_energies["total"]
-    with pytest.raises(ValueError, match="not available for a stiffness matrix on the Krylov path"):
-        ti.ensemble(prob, "B", np.zeros((2, n)), np.zeros((2, n)), h=0.05, n_steps=2)
+    with pytest.raises(ValueError, match="scan without omega_ref: not available for a stiffness matrix on the "
+                                         "Krylov path"):
+        ti.scan(prob, "B", np.zeros(n), np.zeros(n), h_omega=[0.5], t_end=1.0)
     with pytest.raises(ValueError, match="not available .* Krylov"):
         ti.resonance.analyze(0.05, prob)
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _check, _native
+from . import _check, _krylov, _native
 from .methods import Method
 from .problem import OscillatoryProblem
 from .saveat import MAX_STEPS, check_steps
@@ -111,6 +111,8 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
+    if problem.path == "krylov":  # no frequencies: the core evaluates the method at the Ritz values
+        return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, methods={})
     distinct, which = np.unique(h_arr, return_inverse=True)
     try:
         table = _rows_for_step_sizes(method, problem.omega, distinct)
@@ -135,11 +137,14 @@ def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> di
     return {k: v.reshape(d, n) for k, v in rows.items()}
 
 
-def core_arguments(problem: OscillatoryProblem) -> tuple[object, dict, _native.CoreLayout | None]:
+def core_arguments(problem: OscillatoryProblem, method: Method) -> tuple[object, dict, _native.CoreLayout | None]:
     """What every chunk of a problem's batch needs: the potential built in the core's
     coordinates (once per problem; it pickles as its description), the layout's description,
     and the layout that maps states to and from them (None if the core's coordinates are the
-    user's)."""
+    user's). On the Krylov path the description is the sparse matrix's, with the method."""
+    if problem.path == "krylov":
+        spec = {**_krylov.stiffness_spec(problem), "method": method}
+        return _native.built_potential(problem.potential, problem.dim), spec, None
     lay = _native.core_layout(problem)
     order = None if lay.identity and lay.basis is None and lay.transform is None else lay
     return _native.problem_potential(problem, lay), lay.spec, order
@@ -151,6 +156,10 @@ def run_chunk(potential_spec, layout_spec: dict, order: _native.CoreLayout | Non
     """Runs one chunk of trajectories in the core. Module-level and free of local state, so
     that it can be sent to executors and Dask workers. States come back in the user's
     coordinates."""
+
+    if layout_spec.get("path") == "krylov":
+        return _krylov.run(potential_spec, layout_spec, layout_spec["method"], rows["h"], rows["q0"], rows["p0"],
+                           rows["n_steps"], save_every, track, threads)
 
     def state_to_core(x):
         return np.ascontiguousarray(x if order is None else order.to_core(x))

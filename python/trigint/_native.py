@@ -21,6 +21,10 @@ from . import _core
 METHOD_ROWS: tuple[str, ...] = tuple(_core.METHOD_ROWS)
 
 
+#: the Krylov path's matrix functions, in the order of the core's table (``_core.KRYLOV_FUNCTIONS``)
+KRYLOV_FUNCTIONS: tuple[str, ...] = tuple(_core.KRYLOV_FUNCTIONS)
+
+
 def channel_names(n_blocks: int, n_axes: int = 0) -> list[str]:
     """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks and
     `n_axes` per-axis channels."""
@@ -272,16 +276,16 @@ def integrate_batch(potential_core, layout_spec: dict, methods: dict, q0, p0, n_
     )
 
 
-def run_result(status: list[str], messages: list[str], steps_done, initial_energies, max_deviation,
-               samples: list[dict] | None, interrupted: bool = False, interrupted_by: str | None = None,
-               info: dict | None = None):
-    """The core's one result type (``_core.RunResult``), for a run made outside the core (the
-    Krylov path): per trajectory a status, a message, the steps done, the initial energies and
-    max deviations (trajectories × channels) and the samples (dicts of steps, q, p, energies)."""
-    return _core.RunResult(
-        list(status), list(messages), np.asarray(steps_done, dtype=np.uint64),
-        np.ascontiguousarray(initial_energies, dtype=float), np.ascontiguousarray(max_deviation, dtype=float),
-        samples, bool(interrupted), interrupted_by, info,
+def integrate_krylov(potential_core, spec: dict, methods: list[dict], max_iterations: int, q0, p0, n_steps,
+                     save_every, track, threads=None, callback=None):
+    """Runs the rows of q0, p0 on the Krylov path in the core: `spec` the CSR arrays and the
+    tolerance (:func:`trigint._krylov.stiffness_spec`), `methods` one dict per trajectory
+    (:func:`trigint._krylov.method_spec`). Returns the core's RunResult."""
+    return _core.integrate_krylov(
+        potential_core, spec["n"], spec["indptr"], spec["indices"], spec["data"], methods, spec["tol"],
+        int(max_iterations), np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(p0, dtype=float),
+        [int(s) for s in n_steps], None if save_every is None else int(save_every), bool(track), threads,
+        64, callback,
     )
 
 

@@ -42,7 +42,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     Parameters
     ----------
     problem, method
-        As for :func:`trigint.integrate` (two-step form).
+        As for :func:`trigint.integrate` (two-step form; on the Krylov path of a large sparse
+        stiffness matrix, the one-step form, each trajectory with the bits of ``integrate()``).
     q0, p0 : array of shape (B, n) or (n,)
         Initial values; (n,) is broadcast to every trajectory.
     h : float or array of shape (B,)
@@ -100,7 +101,6 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
-    problem.require_spectrum("ensemble")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
@@ -119,7 +119,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         chunk = stored_chunk_size(store) or chunk
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks, problem.n_axes)
-    args = core_arguments(problem)
+    args = core_arguments(problem, method)
     _check_sendable(client, problem.potential, args[0].spec)
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
@@ -178,7 +178,8 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     h_omega : array of float
         The values hω_ref to scan, > 0.
     omega_ref : float, optional
-        The frequency that measures h (default: the largest frequency of the problem).
+        The frequency that measures h (default: the largest frequency of the problem; required on the
+        Krylov path, whose frequencies are never computed).
     t_end : float
         End time of every run.
     energy : str
@@ -203,7 +204,8 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
-    problem.require_spectrum("scan")
+    if omega_ref is None:
+        problem.require_spectrum("scan without omega_ref")
     h_omega = _check.real_array(h_omega, "h_omega", positive=True).reshape(-1)
     ref = float(np.max(problem.omega)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:
@@ -400,10 +402,16 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
     if store is None:
         return None
     shapes = _outputs.shapes(_sizes(problem, batch, names, save_every), save_every is not None)
+    if problem.path == "krylov":  # the sparse matrix by its arrays, and the stopping rule
+        a = problem.stiffness
+        matrix = {"stiffness_indptr": a.indptr, "stiffness_indices": a.indices, "stiffness_data": a.data,
+                  "krylov_tolerance": problem.krylov_tolerance}
+    else:
+        matrix = {} if problem.stiffness is None else {"stiffness": problem.stiffness}
+    coefficients = np.stack([batch.methods[k] for k in METHOD_ROWS]) if batch.methods else None
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
-        **({} if problem.stiffness is None else {"stiffness": problem.stiffness}),
-        "method": repr(method), "coefficients": np.stack([batch.methods[k] for k in METHOD_ROWS]),
+        **matrix, "method": repr(method), "coefficients": coefficients,
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track),
     })

@@ -182,16 +182,17 @@ def _warn_near_resonance(co, method: Method) -> None:
 
 def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, progress) -> Solution:
     """A stiffness matrix on the Krylov path: the one-step form with matrix functions by Lanczos
-    (see :mod:`trigint._krylov`), in Python; energies at the samples, and every step if tracked."""
+    (see :mod:`trigint._krylov`), in the core; energies at the samples, and every step if tracked."""
     from . import _krylov
 
     callback, close = _progress(progress, n_steps, True)
     out = None
     try:
-        out = _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback,
-                                problem.krylov_tolerance)
+        out = _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback)
     finally:
         close(None if out is None else int(out.steps_done[0]))
+    if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
+        raise RuntimeError(f"progress callback failed: {out.interrupted_by}")
     return _solution(problem, method, h, n_steps, out)
 
 

@@ -291,6 +291,12 @@ class Trigonometric(Method):
             self.name = name or "custom"
             self.reference = "user filters"
 
+    @property
+    def named_filter(self) -> str | None:
+        """The letter A–E of a named filter pair (None for user filters): the Krylov path has
+        these in closed form in the core."""
+        return None if self._filter is None else self._filter.key
+
     def _filters(self, xi: np.ndarray, h: float) -> dict:
         return dict(xi_tilde=xi, one_minus_cos=2 * np.sin(xi / 2) ** 2, sin=np.sin(xi), chi=sinc(xi),
                     psi=evaluate(self.psi, xi, "psi"), phi=evaluate(self.phi, xi, "phi"))

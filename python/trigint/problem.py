@@ -45,9 +45,9 @@ class OscillatoryProblem:
     path : {"auto", "dense", "krylov"}
         (Stiffness only) how A is applied. ``"dense"`` diagonalizes A once (n up to 5000) and
         runs every kernel, ensembles included; ``"krylov"`` never forms an n × n matrix and
-        applies each matrix function of h√A by the Lanczos method, one trajectory at a time
-        (``integrate()`` only, one-step form). ``"auto"``: Krylov for a ``scipy.sparse`` A with
-        n > 5000, dense otherwise.
+        applies each matrix function of h√A by the Lanczos method in the core (one-step form;
+        ``integrate()``, ``ensemble()``, and ``scan()`` with ``omega_ref``). ``"auto"``: Krylov
+        for a ``scipy.sparse`` A with n > 5000, dense otherwise.
     krylov_tolerance : float
         (Krylov path) a Lanczos iteration for f(h√A)v stops when its a posteriori error
         estimate β_k |e_kᵀ f(h√T_k) e₁| is below this times |f(h√T_k) e₁|, for every function

@@ -51,3 +51,19 @@ unsafe fn run_avx512<K: Kernel>(k: &mut K) -> K::Output {
 unsafe fn run_avx2<K: Kernel>(k: &mut K) -> K::Output {
     k.run()
 }
+
+/// `f()` in the best copy for this CPU: a loop over long vectors written as a closure (the
+/// Krylov path's products and sums). The closure is inlined into each copy, so it is compiled for
+/// that copy's vectors; the same bits in every copy, as for any [`Kernel`].
+#[inline(always)]
+pub fn wide<R, F: FnMut() -> R>(f: F) -> R {
+    struct Closure<F>(F);
+    impl<R, F: FnMut() -> R> Kernel for Closure<F> {
+        type Output = R;
+        #[inline(always)]
+        fn run(&mut self) -> R {
+            (self.0)()
+        }
+    }
+    run(&mut Closure(f))
+}

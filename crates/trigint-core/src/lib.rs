@@ -18,6 +18,7 @@ pub mod error;
 #[doc(hidden)]
 pub mod fixtures;
 mod isa;
+pub mod krylov;
 pub mod output;
 pub mod potential;
 pub mod real;

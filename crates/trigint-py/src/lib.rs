@@ -4,11 +4,12 @@
 mod convert;
 mod grid;
 mod handle;
+mod krylov;
 mod potential;
 mod result;
+mod watch;
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::RecvTimeoutError;
+use std::sync::atomic::AtomicBool;
 
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -64,37 +65,19 @@ fn integrate<'py>(
     let form = convert::form(form)?;
     let record = convert::record(Some(save_every), track);
     let (q0, p0) = (convert::vec1(q0), convert::vec1(p0));
-    // Between chunks of steps the callback re-attaches to the interpreter: it checks for Ctrl-C
-    // and calls the user's progress function. An exception it raises stops the run.
     let mut pending: Option<PyErr> = None;
-    let mut report = |done: u64| -> bool {
-        Python::attach(|py| {
-            if let Err(e) = py.check_signals() {
-                pending = Some(e);
-                return false;
-            }
-            match &progress {
-                None => true,
-                Some(cb) => match cb.call1(py, (done,)) {
-                    // Only an explicit False stops the run; None (no return) continues.
-                    Ok(r) => r.extract::<bool>(py).unwrap_or(true),
-                    Err(e) => {
-                        pending = Some(e);
-                        false
-                    }
-                },
-            }
+    let out: Result<TrajectoryOutput, CoreError> = {
+        let mut report = watch::reporter(&progress, &mut pending);
+        py.detach(|| {
+            let control = Control {
+                every: progress_every.max(1),
+                report: &mut report,
+            };
+            with_potential!(pot, |p| trigint_core::integrate(
+                p, &lay, &co, &q0, &p0, n_steps, form, record, control
+            ))
         })
     };
-    let out: Result<TrajectoryOutput, CoreError> = py.detach(|| {
-        let control = Control {
-            every: progress_every.max(1),
-            report: &mut report,
-        };
-        with_potential!(pot, |p| trigint_core::integrate(
-            p, &lay, &co, &q0, &p0, n_steps, form, record, control
-        ))
-    });
     let out = out.map_err(|e| to_py(e, pot))?;
     let interrupted = out.status == trigint_core::Status::Interrupted;
     result::from_outputs(
@@ -150,7 +133,6 @@ fn integrate_batch<'py>(
         p0.as_array().iter().copied().collect(),
     );
     let stop = AtomicBool::new(false);
-    let mut interrupted = false;
     let calls_python = matches!(pot, NativePotential::Python(_));
     // A worker that calls Python keeps one interpreter thread state for the whole batch: without
     // it every call would create and delete one (with its frame stack, an mmap and munmap).
@@ -181,26 +163,7 @@ fn integrate_batch<'py>(
         // Scoped: the workers are joined (and their thread states deleted) before this returns.
         builder.build_scoped(worker, body)
     };
-    let out = py.detach(|| {
-        std::thread::scope(|scope| {
-            // The worker says when it is done, so a short batch returns at once; meanwhile
-            // this thread looks for Ctrl-C every 20 ms.
-            let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
-            let worker = scope.spawn(move || {
-                let out = run();
-                let _ = done_tx.send(());
-                out
-            });
-            let tick = std::time::Duration::from_millis(20);
-            while let Err(RecvTimeoutError::Timeout) = done_rx.recv_timeout(tick) {
-                if !interrupted && Python::attach(|py| py.check_signals().is_err()) {
-                    interrupted = true;
-                    stop.store(true, Ordering::Relaxed);
-                }
-            }
-            worker.join()
-        })
-    });
+    let (out, interrupted) = watch::watching_ctrl_c(py, &stop, run);
     let out = match out {
         Ok(Ok(Ok(o))) => o,
         Ok(Ok(Err(e))) => return Err(to_py(e, pot)),
@@ -290,6 +253,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
+    m.add_function(wrap_pyfunction!(krylov::integrate_krylov, m)?)?;
+    m.add(
+        "KRYLOV_FUNCTIONS",
+        PyTuple::new(m.py(), trigint_core::krylov::FUNCTIONS)?,
+    )?;
     // The schemas, written once in the core: the method rows and the energy channels.
     m.add(
         "METHOD_ROWS",

@@ -117,6 +117,16 @@ impl RunResult {
     }
 }
 
+impl RunResult {
+    /// The result with `info` replaced (what an entry point adds).
+    pub fn with_info(self, info: Bound<'_, PyDict>) -> Self {
+        RunResult {
+            info: info.unbind(),
+            ..self
+        }
+    }
+}
+
 fn samples_dict<'py>(
     py: Python<'py>,
     s: Samples,
