@@ -77,7 +77,6 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         let width = L::LANES;
         let n_coords = sh.n();
         let mut guard = L::zero();
-        let mut ws = pot.workspace::<f64>();
         let (high, low) = (&mut self.ext.high, &mut self.ext.low);
         let (q, d) = (self.st.q.get_mut(), self.st.d.get_mut());
         let views = (
@@ -97,18 +96,7 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         );
         let guard_lanes = &mut guard_lanes[..width];
         for j in self.n..self.e {
-            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(
-                sh,
-                pot,
-                &mut ws,
-                k,
-                w,
-                q,
-                d,
-                high,
-                low,
-                guard_lanes,
-            );
+            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(sh, pot, k, w, q, d, high, low, guard_lanes);
             if j % CHECK == 0 || j + 1 == self.e {
                 // Tracked: the sticky sum of the total energies; else the positions.
                 let mut bad = LaneSet::EMPTY;
@@ -143,7 +131,6 @@ fn step_lanes<
 >(
     sh: &Sh,
     pot: &P,
-    ws: &mut P::Workspace<f64>,
     k: &Coef<L, Sh::S<L>>,
     w: &Weights<L, Sh::S<L>>,
     q: &mut [f64],
@@ -167,8 +154,6 @@ fn step_lanes<
             s.q.get_mut()[i] = at(q, i * width + b);
             s.d.get_mut()[i] = at(d, i * width + b);
         }
-        // The inline force never fails and uses no workspace.
-        let _ = ws;
         evaluate::<Sh, P, PHI>(sh, pot, &kb, &mut s, TRACK);
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
         let sums = recursion::two_step(sh, &kb, &wb, &mut s, obs, PLAIN, &mut []);
@@ -192,6 +177,8 @@ fn step_lanes<
     }
 }
 
+/// One lane's force g(φq) into `f`, and U(q) into `u` when `with_value`: the operations of
+/// [`recursion::evaluate`], through the potential's [`inline_force`](Potential::inline_force).
 #[inline(always)]
 fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
     sh: &Sh,
@@ -210,7 +197,8 @@ fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
         }
         pot.inline_force(st.x.get(), st.f.get_mut(), false);
         if with_value {
-            st.u = pot.inline_force(st.q.get(), st.x.get_mut(), true);
+            // U as `value` gives it: the force pass at q, its forces thrown away.
+            st.u = pot.inline_force(st.q.get(), st.q_next.get_mut(), true);
         }
     }
 }
