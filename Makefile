@@ -36,7 +36,7 @@ reproduce: install
 	$(VENV)/bin/trigint reproduce all --out $(OUT)
 
 # The documentation site into docs/_build/html; warnings are errors. The gallery scripts run,
-# and the reproduction page runs the paper's figures (about 80 s on 2 cores; TRIGINT_DOCS_QUICK=1 for the
+# and the reproduction page runs the paper's figures (about 25 s on 2 cores; TRIGINT_DOCS_QUICK=1 for the
 # reduced versions).
 docs: install
 	$(PY) -c "import tomllib; print(*tomllib.load(open('pyproject.toml', 'rb'))['project']['optional-dependencies']['docs'], sep='\n')" > $(VENV)/docs-requirements.txt
