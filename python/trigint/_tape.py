@@ -299,3 +299,48 @@ def tape(expr, coordinates: Sequence, params: Mapping[str, float], what: str = "
     c = Compiler(coordinates, params, what, inputs)
     out = c.compile(expr)
     return {"n": len(coordinates), "ops": c.ops, "output": out}
+
+
+_BINARY = ("add", "sub", "mul", "div")
+
+
+def chain_tape(n: int, terms: list[dict]) -> dict:
+    """One tape of Σ_terms Σ_b V_term((L q)_b) from a chain's terms (each a V tape of one input
+    and a map in compressed rows): the forms y_b = Σ_k L_bk q_k in stored order, V at each, the
+    values summed in term and row order. A short chain runs as this one program (one pass of
+    machine code, no per-term overhead)."""
+    ops: list[tuple] = []
+    index: dict[tuple, int] = {}
+
+    def emit(op: tuple) -> int:
+        if op not in index:
+            ops.append(op)
+            index[op] = len(ops) - 1
+        return index[op]
+
+    total = None
+    for term in terms:
+        v, m = term["v"], term["map"]
+        ptr, idx, vals = m["ptr"], m["idx"], [float(x) for x in m["vals"]]
+        for b in range(len(ptr) - 1):
+            y = None
+            for k in range(ptr[b], ptr[b + 1]):
+                x = emit(("input", int(idx[k])))
+                c = vals[k]
+                t = x if c == 1.0 else emit(("neg", x)) if c == -1.0 else emit(("mul", emit(("const", c)), x))
+                y = t if y is None else emit(("add", y, t))
+            if y is None:
+                y = emit(("const", 0.0))
+            at: dict[int, int] = {}
+            for j, op in enumerate(v["ops"]):
+                name = op[0]
+                if name == "input":
+                    at[j] = y
+                elif name == "const":
+                    at[j] = emit(op)
+                elif name in _BINARY:
+                    at[j] = emit((name, at[op[1]], at[op[2]]))
+                else:  # one operand, and powi's or powf's exponent
+                    at[j] = emit((name, at[op[1]], *op[2:]))
+            total = at[v["output"]] if total is None else emit(("add", total, at[v["output"]]))
+    return {"n": n, "ops": ops, "output": total}
