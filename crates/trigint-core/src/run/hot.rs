@@ -177,7 +177,10 @@ impl<
         let (active, n, e) = (self.active, self.n, self.e);
         let ws = &mut *self.ws;
         let block_sums = &mut *self.block_sums;
-        let (pairs, axes) = (self.pairs, &mut *self.axes);
+        // Compile-time shapes have no pair forms (see `with_shape!`): a constant None there, so
+        // that the observing sweep has no branch on storing p_n.
+        let pairs = if Sh::FIXED { None } else { self.pairs };
+        let axes = &mut *self.axes;
         // A pair form needs p_n itself: the two-step sweep then stores it (q is advanced after).
         let obs = match (TRACK, pairs.is_some()) {
             (false, _) => Observe::No,

@@ -42,7 +42,9 @@ macro_rules! with_shape {
     ($layout:expr, $methods:expr, |$sh:ident, $one:ident| $body:expr) => {{
         let lay: &Layout = $layout;
         let uniform = P::SPECIALIZE && lay.n_blocks() <= 1 && uniform(lay, $methods);
-        let small = P::SMALL_SHAPES && uniform;
+        // (A pair form, such as a wave equation's momentum, is never on a compile-time shape: the
+        // tight loop then knows at compile time that it has none.)
+        let small = P::SMALL_SHAPES && uniform && lay.pair_forms.is_none();
         macro_rules! fixed {
             ($n:literal, $ns:literal) => {{
                 let $sh = &Fixed::<$n, $ns>::new();
