@@ -60,9 +60,10 @@ def kernel_isa() -> str:
     except (OSError, StopIteration):
         return "unknown"
     words = set(flags.split(":", 1)[1].split())
-    if "avx512f" in words:
+    cap = isa_cap()
+    if "avx512f" in words and cap not in ("avx2", "baseline", "sse2"):
         return "AVX-512"
-    return "AVX2" if "avx2" in words else "SSE2"
+    return "AVX2" if "avx2" in words and cap not in ("baseline", "sse2") else "SSE2"
 
 
 def compile_c(name: str) -> Path:
@@ -71,8 +72,20 @@ def compile_c(name: str) -> Path:
         raise RuntimeError("no C compiler (cc) found; the C baselines need one")
     BUILD.mkdir(exist_ok=True)
     exe = BUILD / name
-    subprocess.run([cc, "-O3", "-march=native", "-o", str(exe), str(HERE / "c" / f"{name}.c"), "-lm"], check=True)
+    subprocess.run([cc, "-O3", "-march=native", *c_isa_flags(), "-o", str(exe), str(HERE / "c" / f"{name}.c"), "-lm"],
+                   check=True)
     return exe
+
+
+def isa_cap() -> str | None:
+    """The instruction-set cap of the kernels (`TRIGINT_ISA`), if any."""
+    cap = os.environ.get("TRIGINT_ISA", "").strip().lower()
+    return cap or None
+
+
+def c_isa_flags() -> list[str]:
+    """The C baselines under the same cap as the kernels (`TRIGINT_ISA=avx2`: no AVX-512)."""
+    return {"avx2": ["-mno-avx512f"], "baseline": ["-mno-avx"], "sse2": ["-mno-avx"]}.get(isa_cap() or "", [])
 
 
 def c_timer(exe: Path, *args):
@@ -410,7 +423,8 @@ def write_report(limits, potentials, stiffness, krylov, others, interrupts, wave
         "# trigint benchmarks",
         "",
         f"Machine: {cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.machine()}, "
-        f"the kernels' {kernel_isa()} copies (C baselines: cc -O3 -march=native), "
+        f"the kernels' {kernel_isa()} copies (C baselines: cc -O3 -march=native {' '.join(c_isa_flags())}".rstrip()
+        + (f"; TRIGINT_ISA={isa_cap()}" if isa_cap() else "") + "), "
         f"Python {platform.python_version()}; {dt.date.today().isoformat()}. ns per (trajectory-)step, "
         "median of interleaved repetitions; ratio = trigint / baseline.",
         "",

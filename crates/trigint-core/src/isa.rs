@@ -16,17 +16,53 @@ pub trait Kernel {
     fn run(&mut self) -> Self::Output;
 }
 
-/// `k.run()` in the best copy for this CPU.
+/// The instruction sets the kernels may use here: the CPU's, capped by the environment
+/// variable `TRIGINT_ISA` (`avx512`, `avx2` or `baseline`; read once), which lets one machine
+/// time the copies another machine would run. Every copy gives the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Allowed {
+    pub avx512: bool,
+    pub avx2: bool,
+}
+
+/// See [`Allowed`].
+pub fn allowed() -> Allowed {
+    static ALLOWED: std::sync::OnceLock<Allowed> = std::sync::OnceLock::new();
+    *ALLOWED.get_or_init(|| {
+        #[cfg(target_arch = "x86_64")]
+        let (avx512, avx2) = (
+            std::is_x86_feature_detected!("avx512f"),
+            std::is_x86_feature_detected!("avx2"),
+        );
+        #[cfg(not(target_arch = "x86_64"))]
+        let (avx512, avx2) = (false, false);
+        let cap = std::env::var("TRIGINT_ISA").unwrap_or_default();
+        match cap.trim().to_ascii_lowercase().as_str() {
+            "avx2" => Allowed {
+                avx512: false,
+                avx2,
+            },
+            "baseline" | "sse2" => Allowed {
+                avx512: false,
+                avx2: false,
+            },
+            _ => Allowed { avx512, avx2 },
+        }
+    })
+}
+
+/// `k.run()` in the best copy for this CPU (see [`allowed`]).
 #[inline(always)]
 pub fn run<K: Kernel>(k: &mut K) -> K::Output {
     #[cfg(target_arch = "x86_64")]
     if K::WIDE {
-        if std::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
+        let isa = allowed();
+        if isa.avx512 {
+            // SAFETY: the CPU supports AVX-512F (`allowed` checked it).
             return unsafe { run_avx512(k) };
         }
-        if K::AVX2 && std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
+        if K::AVX2 && isa.avx2 {
+            // SAFETY: the CPU supports AVX2 (`allowed` checked it).
             return unsafe { run_avx2(k) };
         }
     }

@@ -1,0 +1,46 @@
+"""The kernels' copies per instruction set (AVX-512, AVX2, baseline x86-64; `TRIGINT_ISA` caps
+the choice) give the same bits: one trajectory, an ensemble on the lane loop, a compiled
+expression, the Krylov path."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+SCRIPT = r"""
+import sys, numpy as np, scipy.sparse, sympy as sp, trigint as ti
+prob = ti.problems.fpu(3, 50.0); q0, p0 = ti.problems.fpu_initial(3, 50.0)
+h = 2 * np.pi / 3 / 50
+one = ti.integrate(prob, "B", q0, p0, h=h, n_steps=3000, save_every=1000)
+Q0, P0 = ti.perturb(q0, p0, np.linspace(0, 1e-6, 16))
+ens = ti.ensemble(prob, "C", Q0, P0, h=h * (1 + np.linspace(0, 1e-3, 16)), n_steps=2000, save_every=1000, threads=1)
+x = sp.symbols("x0:6")
+expr = ti.OscillatoryProblem(prob.omega, ti.ExpressionPotential(sum(sp.cos(v) * v**2 for v in x), x))
+ex = ti.integrate(expr, "B", q0, p0, h=h, n_steps=2000, save_every=1000)
+n = 300
+a = scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]).tocsr() * 100.0
+chain = ti.OscillatoryProblem(stiffness=a, potential=ti.ChainPotential(n).add("y**4/4", "y", sites=range(n)), path="krylov")
+kr = ti.integrate(chain, "D", np.sin(np.linspace(0, 3, n)), np.zeros(n), h=0.05, n_steps=30, save_every=30)
+np.savez(sys.argv[1], one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
+         ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q)
+"""
+
+
+def run_with(isa: str | None, path) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "TRIGINT_ISA"}
+    if isa is not None:
+        env["TRIGINT_ISA"] = isa
+    subprocess.run([sys.executable, "-c", SCRIPT, str(path)], check=True, env=env, timeout=300)
+    with np.load(path) as f:
+        return {k: f[k] for k in f.files}
+
+
+@pytest.mark.parametrize("isa", ["avx2", "baseline"])
+def test_every_instruction_set_copy_gives_the_same_bits(tmp_path, isa):
+    best = run_with(None, tmp_path / "best.npz")
+    capped = run_with(isa, tmp_path / f"{isa}.npz")
+    for key, value in best.items():
+        np.testing.assert_array_equal(capped[key], value, err_msg=key)
+    assert np.max(np.abs(best["one"][-1] - best["one"][0])) > 0.1
