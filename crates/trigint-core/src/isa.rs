@@ -9,8 +9,7 @@ pub trait Kernel {
     type Output;
     /// Worth more than one copy at all.
     const WIDE: bool = true;
-    /// Worth an AVX2 copy besides the AVX-512 one (not for one-lane compile-time shapes, which
-    /// gain only AVX-512's 32 registers).
+    /// Worth an AVX2 copy besides the AVX-512 one.
     const AVX2: bool = true;
     /// The loop; `#[inline(always)]`, so that each copy below compiles it for its features.
     fn run(&mut self) -> Self::Output;
