@@ -21,7 +21,8 @@ expr = ti.OscillatoryProblem(prob.omega, ti.ExpressionPotential(sum(sp.cos(v) * 
 ex = ti.integrate(expr, "B", q0, p0, h=h, n_steps=2000, save_every=1000)
 n = 300
 a = scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]).tocsr() * 100.0
-chain = ti.OscillatoryProblem(stiffness=a, potential=ti.ChainPotential(n).add("y**4/4", "y", sites=range(n)), path="krylov")
+sites = ti.ChainPotential(n).add("y**4/4", "y", sites=range(n))
+chain = ti.OscillatoryProblem(stiffness=a, potential=sites, path="krylov")
 kr = ti.integrate(chain, "D", np.sin(np.linspace(0, 3, n)), np.zeros(n), h=0.05, n_steps=30, save_every=30)
 np.savez(sys.argv[1], one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
          ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q)
