@@ -30,7 +30,7 @@ use crate::energy::Samples;
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Record, Status, TrajectoryOutput};
 use crate::potential::Potential;
-use crate::run::Control;
+use crate::run::{check_state, Control};
 
 /// What a Krylov run adds to its output: the Lanczos counts.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -224,20 +224,8 @@ fn check(
     record: &Record,
 ) -> CoreResult<()> {
     let n = a.n();
-    for (name, v) in [("q0", q0), ("p0", p0)] {
-        if v.len() != n {
-            return Err(CoreError::invalid(
-                name,
-                format!("has {} entries for {n} coordinates", v.len()),
-            ));
-        }
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            return Err(CoreError::invalid(
-                name,
-                format!("entry {i} is not finite ({})", v[i]),
-            ));
-        }
-    }
+    check_state("q0", q0, n, "")?;
+    check_state("p0", p0, n, "")?;
     if !(h > 0.0 && h.is_finite()) {
         return Err(CoreError::invalid(
             "h",

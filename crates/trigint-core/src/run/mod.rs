@@ -74,7 +74,8 @@ macro_rules! with_shape {
     }};
 }
 
-fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) -> CoreResult<()> {
+/// A state of `n` finite numbers, or the error that names it (`which`: which trajectory).
+pub(crate) fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) -> CoreResult<()> {
     if v.len() != n {
         return Err(CoreError::invalid(
             name,
