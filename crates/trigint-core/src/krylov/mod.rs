@@ -25,7 +25,7 @@ pub use functions::{
 pub use lanczos::{Lanczos, Product, MAX_ITERATIONS};
 pub use tridiagonal::Tridiagonal;
 
-use crate::channels::channel_count;
+use crate::channels::{channel_count, FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
 use crate::energy::Samples;
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Record, Status, TrajectoryOutput};
@@ -39,12 +39,21 @@ pub struct KrylovCounts {
     pub products: u64,
 }
 
-/// The energies (total, oscillatory, slow, modified, the one block) at a state, NaN for the
-/// modified oscillatory energy (it needs the frequencies).
-fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64; 5] {
+/// The channels of a Krylov run: the table's main channels and its one block.
+const CHANNELS: usize = FIRST_BLOCK + 1;
+
+/// The energies at a state in channel order: H = ½|p|² + ½qᵀAq + U, the quadratic part as H_ω
+/// and as the one block's energy, U as H_slow, NaN for the modified energy (it needs the
+/// frequencies).
+fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64; CHANNELS] {
     a.apply(q, scratch);
     let quadratic = 0.5 * (dot(p, p) + dot(q, scratch));
-    [quadratic + u, quadratic, u, f64::NAN, quadratic]
+    let mut e = [f64::NAN; CHANNELS];
+    e[TOTAL] = quadratic + u;
+    e[OSCILLATORY] = quadratic;
+    e[SLOW] = u;
+    e[FIRST_BLOCK] = quadratic;
+    e
 }
 
 /// g(φq) and the products of it the steps need: ψg, (ψ/χ)g, (cψ/χ)g.
@@ -268,7 +277,7 @@ pub fn integrate<P: Potential>(
     pot.check_dim(a.n())?;
     let n = a.n();
     let channels = channel_count(1, 0);
-    debug_assert_eq!(channels, 5);
+    debug_assert_eq!(channels, CHANNELS);
     let mut st = Stepper::new(a, pot, functions, h, lanczos);
     let (tol, max_iterations) = (lanczos.tol, lanczos.max_iterations);
     let mut scratch = vec![0.0; n];
@@ -277,7 +286,7 @@ pub fn integrate<P: Potential>(
     let u0 = st.value(&q, None)?;
     let e0 = energies(a, &mut scratch, &q, &p, u0);
     let mut samples = Samples::default();
-    let keep = |s: &mut Samples, step: u64, q: &[f64], p: &[f64], e: &[f64; 5]| {
+    let keep = |s: &mut Samples, step: u64, q: &[f64], p: &[f64], e: &[f64; CHANNELS]| {
         s.steps.push(step);
         s.q.extend_from_slice(q);
         s.p.extend_from_slice(p);
@@ -305,7 +314,7 @@ pub fn integrate<P: Potential>(
     if save_every.is_some() {
         keep(&mut samples, 0, &q, &p, &e0);
     }
-    let mut worst = [0.0f64; 5];
+    let mut worst = [0.0f64; CHANNELS];
     let (mut g, mut g_next) = (Force::new(n), Force::new(n));
     let mut status = Status::Completed;
     let mut message = format!("{n_steps} steps");
@@ -355,7 +364,7 @@ pub fn integrate<P: Potential>(
                 let sample = save_every.is_some_and(|s| done.is_multiple_of(s)) || done == n_steps;
                 if record.track || sample {
                     last_e = energies(a, &mut scratch, &q, &p, u);
-                    for c in 0..5 {
+                    for c in 0..CHANNELS {
                         worst[c] = worst[c].max((last_e[c] - e0[c]).abs());
                     }
                 }
