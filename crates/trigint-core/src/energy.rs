@@ -50,6 +50,20 @@ pub struct PairForms {
     pub b: Vec<usize>,
     /// Axis-major: weights[m * pairs + k].
     pub weights: Vec<f64>,
+    /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), … (see [`PairForms::evaluate`]).
+    consecutive: Option<usize>,
+}
+
+/// The first coordinate a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), …: the modes of a
+/// 1-D wave equation in the grid's order, read without an index.
+fn consecutive(a: &[usize], b: &[usize]) -> Option<usize> {
+    let a0 = *a.first()?;
+    let all = a
+        .iter()
+        .zip(b)
+        .enumerate()
+        .all(|(t, (&a, &b))| a == a0 + 2 * t && b == a + 1);
+    all.then_some(a0)
 }
 
 impl PairForms {
@@ -68,7 +82,13 @@ impl PairForms {
         if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
             return bad(format!("weight {w} is not finite"));
         }
-        Ok(PairForms { a, b, weights })
+        let consecutive = consecutive(&a, &b);
+        Ok(PairForms {
+            a,
+            b,
+            weights,
+            consecutive,
+        })
     }
 
     /// Number of axes (channels).
@@ -76,9 +96,57 @@ impl PairForms {
         self.weights.len() / self.a.len()
     }
 
+    /// (a₀, pairs, axes) when the observing sweep of these blocks can compute the forms in its
+    /// pass (see [`crate::recursion::Riders`]): consecutive pairs, none split by a block end,
+    /// all among the oscillatory coordinates, at most
+    /// [`MAX_RIDING_AXES`](crate::recursion::MAX_RIDING_AXES) axes.
+    pub fn riding(&self) -> Option<(usize, usize, usize)> {
+        let a0 = self.consecutive?;
+        (self.axes() <= crate::recursion::MAX_RIDING_AXES).then_some((a0, self.a.len(), self.axes()))
+    }
+
+    /// Whether the forms can ride along the sweep of the blocks ending at `ends` over the
+    /// oscillatory coordinates from `ns` on (see [`PairForms::riding`]).
+    pub fn rides_along(&self, ns: usize, ends: &[usize]) -> bool {
+        let Some((a0, count, _)) = self.riding() else {
+            return false;
+        };
+        let last = a0 + 2 * count;
+        a0 >= ns && ends.last().is_some_and(|&e| e >= last) && {
+            // No block ends between the two coordinates of a pair: at a0 + 2t + 1.
+            !ends.iter().any(|&e| e > a0 && e < last && (e - a0) % 2 == 1)
+        }
+    }
+
     /// K_m of the state (q, p) into `out[m]`, each a sum in the kernels' fixed order.
     pub fn evaluate<L: Real>(&self, q: &[L], p: &[L], out: &mut [L]) {
         let pairs = self.a.len();
+        if let Some(a0) = self.consecutive {
+            // The same terms in the same order, from two contiguous slices.
+            let (q, p) = (&q[a0..a0 + 2 * pairs], &p[a0..a0 + 2 * pairs]);
+            for (m, k) in out.iter_mut().enumerate() {
+                let w = &self.weights[m * pairs..(m + 1) * pairs];
+                let mut sum = Sum8::new();
+                let term = |t: usize| {
+                    let (qa, qb, pa, pb) = (q[2 * t], q[2 * t + 1], p[2 * t], p[2 * t + 1]);
+                    L::splat(w[t]) * (qa * pb - qb * pa)
+                };
+                let whole = pairs / 8 * 8;
+                for base in (0..whole).step_by(8) {
+                    let x: [L; 8] = std::array::from_fn(|t| term(base + t));
+                    if base == 0 {
+                        sum.add8::<true>(&x);
+                    } else {
+                        sum.add8::<false>(&x);
+                    }
+                }
+                for t in whole..pairs {
+                    sum.add(t % 8, t >= 8, term(t));
+                }
+                *k = sum.total(pairs);
+            }
+            return;
+        }
         for (m, k) in out.iter_mut().enumerate() {
             let w = &self.weights[m * pairs..(m + 1) * pairs];
             let mut sum = Sum8::new();
@@ -186,6 +254,37 @@ impl<L: Real> Extremes<L> {
         for (j, &e) in blocks.iter().chain(axes).enumerate() {
             self.block_high[j] = self.block_high[j].keep_max(e);
             self.block_low[j] = self.block_low[j].keep_min(e);
+        }
+    }
+
+    /// The per-axis channels' extremes alone (the blocks' taken by the sweep, see
+    /// [`crate::recursion::Riders`]).
+    #[inline(always)]
+    pub fn update_axes(&mut self, n_blocks: usize, axes: &[L]) {
+        for (k, &e) in axes.iter().enumerate() {
+            self.block_high[n_blocks + k] = self.block_high[n_blocks + k].keep_max(e);
+            self.block_low[n_blocks + k] = self.block_low[n_blocks + k].keep_min(e);
+        }
+    }
+
+    /// Halves the per-block sums Σ(p² + ω²q²) in place into the block energies I_j and takes
+    /// their extremes, then the per-axis channels' (one loop: a wave equation has 10⁴–10⁶
+    /// blocks).
+    #[inline(always)]
+    pub fn update_half_blocks(&mut self, blocks: &mut [L], axes: &[L]) {
+        let half = L::splat(0.5);
+        let (high, low) = (&mut self.block_high[..], &mut self.block_low[..]);
+        let (high, low) = (&mut high[..blocks.len()], &mut low[..blocks.len()]);
+        for ((s, hi), lo) in blocks.iter_mut().zip(high.iter_mut()).zip(low.iter_mut()) {
+            let e = half * *s;
+            *s = e;
+            *hi = hi.keep_max(e);
+            *lo = lo.keep_min(e);
+        }
+        let nb = blocks.len();
+        for (k, &e) in axes.iter().enumerate() {
+            self.block_high[nb + k] = self.block_high[nb + k].keep_max(e);
+            self.block_low[nb + k] = self.block_low[nb + k].keep_min(e);
         }
     }
 

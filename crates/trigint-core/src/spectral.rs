@@ -50,6 +50,40 @@ pub struct Slot {
     pub part: Part,
 }
 
+/// Pairs `first`, `first` + 2, … (coordinates) of modes `at`, `at` + 1, …, `len` of them.
+#[derive(Debug, Clone, Copy)]
+struct PairRun {
+    first: usize,
+    at: usize,
+    len: usize,
+}
+
+/// Cuts the slots into runs of unmirrored pairs and single slots (see [`Spectral::runs`]).
+fn pair_runs(slots: &[Slot]) -> (Vec<PairRun>, Vec<usize>) {
+    let (mut runs, mut singles) = (Vec::<PairRun>::new(), Vec::new());
+    let mut i = 0;
+    while i < slots.len() {
+        let s = slots[i];
+        if s.part != Part::Cos || s.mirror != usize::MAX {
+            if s.part != Part::Sin {
+                singles.push(i);
+            }
+            i += 1;
+            continue;
+        }
+        match runs.last_mut() {
+            Some(r) if r.first + 2 * r.len == i && r.at + r.len == s.at => r.len += 1,
+            _ => runs.push(PairRun {
+                first: i,
+                at: s.at,
+                len: 1,
+            }),
+        }
+        i += 2;
+    }
+    (runs, singles)
+}
+
 /// The real Fourier coordinates of one grid shape, with the FFT plans of its two transforms.
 pub struct Spectral {
     shape: Vec<usize>,
@@ -57,6 +91,11 @@ pub struct Spectral {
     half: Vec<usize>,
     points: usize,
     slots: Vec<Slot>,
+    /// The slots as the transforms' packing loops read them: runs of pairs without a mirror
+    /// whose coordinates and modes are consecutive (whole rows of the half spectrum), and the
+    /// rest one by one.
+    runs: Vec<PairRun>,
+    singles: Vec<usize>,
     /// The wavevector of each coordinate (signed FFT frequencies, d per coordinate).
     wavevectors: Vec<i64>,
     r2c: Arc<dyn RealToComplex<f64>>,
@@ -159,6 +198,7 @@ impl Spectral {
             }
         }
         debug_assert_eq!(slots.len(), points);
+        let (runs, singles) = pair_runs(&slots);
         let mut real = RealFftPlanner::<f64>::new();
         let mut complex = FftPlanner::<f64>::new();
         Ok(Spectral {
@@ -176,6 +216,8 @@ impl Spectral {
             half,
             points,
             slots,
+            runs,
+            singles,
             wavevectors,
         })
     }
@@ -245,7 +287,15 @@ impl Spectral {
     pub fn to_grid(&self, q: &[f64], u: &mut [f64], ws: &mut SpectralWorkspace) {
         debug_assert_eq!(q.len(), self.points);
         let r = std::f64::consts::FRAC_1_SQRT_2;
-        for (i, s) in self.slots.iter().enumerate() {
+        for run in &self.runs {
+            let q = &q[run.first..run.first + 2 * run.len];
+            let half = &mut ws.half[run.at..run.at + run.len];
+            for (c, ab) in half.iter_mut().zip(q.chunks_exact(2)) {
+                *c = Complex64::new(ab[0] * r, -ab[1] * r);
+            }
+        }
+        for &i in &self.singles {
+            let s = self.slots[i];
             match s.part {
                 Part::Real => ws.half[s.at] = Complex64::new(q[i], 0.0),
                 Part::Cos => {
@@ -295,13 +345,25 @@ impl Spectral {
             self.along_axis(a, self.forward[a].as_ref(), ws);
         }
         let s2 = std::f64::consts::SQRT_2 * scale;
-        for (i, s) in self.slots.iter().enumerate() {
+        for run in &self.runs {
+            let out = &mut out[run.first..run.first + 2 * run.len];
+            let half = &ws.half[run.at..run.at + run.len];
+            for (ab, c) in out.chunks_exact_mut(2).zip(half) {
+                ab[0] = c.re * s2;
+                ab[1] = -c.im * s2;
+            }
+        }
+        for &i in &self.singles {
+            let s = self.slots[i];
             let c = ws.half[s.at];
-            out[i] = match s.part {
-                Part::Real => c.re * scale,
-                Part::Cos => c.re * s2,
-                Part::Sin => -c.im * s2,
-            };
+            match s.part {
+                Part::Real => out[i] = c.re * scale,
+                Part::Cos => {
+                    out[i] = c.re * s2;
+                    out[i + 1] = -c.im * s2;
+                }
+                Part::Sin => {}
+            }
         }
     }
 }

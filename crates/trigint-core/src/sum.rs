@@ -89,6 +89,20 @@ impl<L: Real> Sum8<L> {
         }
     }
 
+    /// Terms k … k + v.len() − 1 of a range for any k = `first`: the same partial sums, term
+    /// by term in order, as [`add`](Self::add) one at a time, with the whole chunks of eight in
+    /// between written out (which the compiler vectorizes).
+    #[inline(always)]
+    pub fn add_from(&mut self, first: usize, v: &[L]) {
+        let head = ((8 - first % 8) % 8).min(v.len());
+        for (t, &x) in v[..head].iter().enumerate() {
+            let k = first + t;
+            self.add(k % 8, k >= 8, x);
+        }
+        let aligned = first + head;
+        self.add_slice(&v[head..], aligned >= 8);
+    }
+
     /// The sum of a range of `count` terms.
     #[inline(always)]
     pub fn total(&self, count: usize) -> L {

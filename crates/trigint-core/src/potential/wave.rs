@@ -27,7 +27,13 @@ pub struct Wave {
 }
 
 pub struct WaveWorkspace {
+    /// One lane's Fourier coordinates (unused when the kernel's state is read in place).
     fourier: Vec<f64>,
+    grid: GridWorkspace,
+}
+
+/// The grid values and transform scratch of one evaluation.
+struct GridWorkspace {
     u: Vec<f64>,
     g: Vec<f64>,
     values: Vec<f64>,
@@ -70,36 +76,27 @@ impl Wave {
         &self.grid
     }
 
+    /// The state's coordinates as one flat f64 slice, read in place: one lane in the grid's
+    /// order.
+    fn in_place<'a, L: Real>(&self, x: &'a [L]) -> Option<&'a [f64]> {
+        if L::LANES == 1 && self.identity {
+            L::as_f64s(x)
+        } else {
+            None
+        }
+    }
+
     /// Lane b of the kernel's state into the Fourier buffer.
     fn gather<L: Real>(&self, x: &[L], b: usize, fourier: &mut [f64]) {
-        if L::LANES == 1 && self.identity {
-            if let Some(flat) = L::as_f64s(x) {
-                fourier.copy_from_slice(flat);
-                return;
-            }
-        }
         for (k, &i) in self.order.iter().enumerate() {
             fourier[i] = x[k].lane(b);
         }
     }
 
-    /// The Fourier buffer into lane b of the kernel's force.
-    fn scatter<L: Real>(&self, fourier: &[f64], b: usize, force: &mut [L]) {
-        if L::LANES == 1 && self.identity {
-            if let Some(flat) = L::as_f64s_mut(force) {
-                flat.copy_from_slice(fourier);
-                return;
-            }
-        }
-        for (k, &i) in self.order.iter().enumerate() {
-            force[k].set_lane(b, fourier[i]);
-        }
-    }
-
-    /// U of one trajectory whose Fourier coordinates are in `ws.fourier`; −V' on the grid into
-    /// `ws.g` when `force`.
-    fn on_grid(&self, force: bool, with_value: bool, ws: &mut WaveWorkspace) -> f64 {
-        self.grid.to_grid(&ws.fourier, &mut ws.u, &mut ws.fft);
+    /// U of one trajectory whose Fourier coordinates are `q`; −V' on the grid into `ws.g`
+    /// when `force`.
+    fn on_grid(&self, q: &[f64], force: bool, with_value: bool, ws: &mut GridWorkspace) -> f64 {
+        self.grid.to_grid(q, &mut ws.u, &mut ws.fft);
         let g = if force { Some(&mut ws.g[..]) } else { None };
         let total = self.v.eval_tiles(
             &ws.u,
@@ -110,6 +107,24 @@ impl Wave {
             TILE,
         );
         total / self.grid.points() as f64
+    }
+
+    /// U of lane b of the state (its coordinates read in place where they can be).
+    fn lane_on_grid<L: Real>(
+        &self,
+        x: &[L],
+        b: usize,
+        force: bool,
+        with_value: bool,
+        ws: &mut WaveWorkspace,
+    ) -> f64 {
+        match self.in_place(x) {
+            Some(q) => self.on_grid(q, force, with_value, &mut ws.grid),
+            None => {
+                self.gather(x, b, &mut ws.fourier);
+                self.on_grid(&ws.fourier, force, with_value, &mut ws.grid)
+            }
+        }
     }
 }
 
@@ -126,12 +141,14 @@ impl Potential for Wave {
     fn workspace<L: Real>(&self) -> WaveWorkspace {
         let n = self.grid.points();
         WaveWorkspace {
-            fourier: vec![0.0; n],
-            u: vec![0.0; n],
-            g: vec![0.0; n],
-            values: vec![0.0; n],
-            registers: self.v.tile_registers::<f64>(TILE),
-            fft: self.grid.workspace(),
+            fourier: vec![0.0; if self.in_place::<L>(&[]).is_some() { 0 } else { n }],
+            grid: GridWorkspace {
+                u: vec![0.0; n],
+                g: vec![0.0; n],
+                values: vec![0.0; n],
+                registers: self.v.tile_registers::<f64>(TILE),
+                fft: self.grid.workspace(),
+            },
         }
     }
 
@@ -144,13 +161,21 @@ impl Potential for Wave {
     ) -> CoreResult<L> {
         let mut value = L::zero();
         let scale = 1.0 / self.grid.points() as f64;
+        let in_place = self.in_place(x).is_some();
         for b in 0..L::LANES {
-            self.gather(x, b, &mut ws.fourier);
-            value.set_lane(b, self.on_grid(true, with_value, ws));
-            // g = (1/N) Sᵀ(−V'(u)); the Fourier buffer takes the result.
-            self.grid
-                .transpose(&mut ws.g, &mut ws.fourier, scale, &mut ws.fft);
-            self.scatter(&ws.fourier, b, force);
+            value.set_lane(b, self.lane_on_grid(x, b, true, with_value, ws));
+            // g = (1/N) Sᵀ(−V'(u)), written into the force in place or through the buffer.
+            let grid = &mut ws.grid;
+            match L::as_f64s_mut(force).filter(|_| in_place) {
+                Some(out) => self.grid.transpose(&mut grid.g, out, scale, &mut grid.fft),
+                None => {
+                    self.grid
+                        .transpose(&mut grid.g, &mut ws.fourier, scale, &mut grid.fft);
+                    for (k, &i) in self.order.iter().enumerate() {
+                        force[k].set_lane(b, ws.fourier[i]);
+                    }
+                }
+            }
         }
         Ok(value)
     }
@@ -158,8 +183,7 @@ impl Potential for Wave {
     fn value<L: Real>(&self, x: &[L], ws: &mut WaveWorkspace) -> CoreResult<L> {
         let mut value = L::zero();
         for b in 0..L::LANES {
-            self.gather(x, b, &mut ws.fourier);
-            value.set_lane(b, self.on_grid(false, true, ws));
+            value.set_lane(b, self.lane_on_grid(x, b, false, true, ws));
         }
         Ok(value)
     }

@@ -8,7 +8,7 @@ use crate::error::CoreResult;
 use crate::output::Form;
 use crate::potential::Potential;
 use crate::real::{LaneSet, Real};
-use crate::recursion::{self, Observe, State};
+use crate::recursion::{self, Observe, Riders, State};
 use crate::shape::{Shape, Storage};
 
 impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
@@ -182,8 +182,14 @@ impl<
         // that the observing sweep has no branch on storing p_n.
         let pairs = if Sh::FIXED { None } else { self.pairs };
         let axes = &mut *self.axes;
-        // A pair form needs p_n itself: the two-step sweep then stores it (q is advanced after).
-        let obs = match (TRACK, pairs.is_some()) {
+        // The sweep of many blocks takes the block extremes along, and the pair forms where
+        // they allow it (a wave equation's momentum): one pass over the state.
+        let many = !sh.single_block();
+        let riding = pairs.filter(|f| many && TWO_STEP && f.rides_along(sh.ns(), sh.block_ends()));
+        let n_blocks = sh.block_ends().len();
+        // Any other pair form needs p_n itself: the two-step sweep then stores it (q is
+        // advanced after).
+        let obs = match (TRACK, pairs.is_some() && riding.is_none()) {
             (false, _) => Observe::No,
             (true, false) => Observe::Energies,
             (true, true) => Observe::State,
@@ -197,8 +203,16 @@ impl<
         for j in n..e {
             let sums = if TWO_STEP {
                 recursion::evaluate(sh, pot, ws, k, st, TRACK, phi, INLINE)?;
-                let s = recursion::two_step(sh, k, w, st, obs, PLAIN, block_sums);
-                if let (true, Some(f)) = (TRACK, pairs) {
+                let riders = if TRACK && many {
+                    Riders {
+                        extremes: Some((&mut ext.block_high[..n_blocks], &mut ext.block_low[..n_blocks])),
+                        pairs: riding.map(|f| (f, &mut axes[..])),
+                    }
+                } else {
+                    Riders::none()
+                };
+                let s = recursion::two_step_riding(sh, k, w, st, obs, PLAIN, block_sums, riders);
+                if let (true, Some(f), None) = (TRACK, pairs, riding) {
                     f.evaluate(st.q.get(), st.p.get(), axes);
                     recursion::finish_state_step(sh, st);
                 }
@@ -219,12 +233,11 @@ impl<
                 let main = sums.channels(st.u, PLAIN);
                 guard += main[TOTAL] * zero;
                 ext.update(&main, PLAIN);
-                if !sh.single_block() {
-                    let half = L::splat(0.5);
-                    for s in block_sums.iter_mut() {
-                        *s = half * *s;
-                    }
-                    ext.update_blocks(block_sums, axes);
+                if many && TWO_STEP {
+                    // The blocks' extremes were taken by the sweep.
+                    ext.update_axes(n_blocks, axes);
+                } else if many {
+                    ext.update_half_blocks(block_sums, axes);
                 } else if pairs.is_some() {
                     ext.update_blocks(&[], axes);
                 }

@@ -24,6 +24,11 @@ use crate::real::Real;
 use crate::shape::{Shape, Storage};
 use crate::sum::{pairwise, Sum8};
 
+mod blocks;
+
+use blocks::many_blocks;
+pub use blocks::{Riders, MAX_RIDING_AXES};
+
 /// What a step computes besides advancing.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Observe {
@@ -302,6 +307,27 @@ pub fn two_step<L: Real, Sh: Shape>(
     plain: bool,
     blocks: &mut [L],
 ) -> Sums<L> {
+    two_step_riding(sh, k, w, st, obs, plain, blocks, Riders::none())
+}
+
+/// [`two_step`] with [`Riders`] (taken only by the sweep of many blocks: a shape of one block
+/// must pass none).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn two_step_riding<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    w: &Weights<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+    obs: Observe,
+    plain: bool,
+    blocks: &mut [L],
+    riders: Riders<'_, L>,
+) -> Sums<L> {
+    debug_assert!(
+        (riders.extremes.is_none() && riders.pairs.is_none()) || !sh.single_block(),
+        "riders need the sweep of many blocks"
+    );
     let (ns, n) = (sh.ns(), sh.n());
     let q = &mut st.q.get_mut()[..n];
     let (d, p, f) = (
@@ -366,73 +392,9 @@ pub fn two_step<L: Real, Sh: Shape>(
         (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
     } else {
         (sums.oscillatory, sums.modified) =
-            many_blocks(sh, (q, d, p, f), store, &fast, w, plain, blocks);
+            many_blocks(sh, (q, d, p, f), store, &fast, w, plain, blocks, riders);
     }
     sums
-}
-
-/// The observing sweep of many blocks (a wave equation has one per Fourier mode, 10⁴–10⁶ of
-/// them): the step over all oscillatory coordinates in one flat loop with p_n stored, then each
-/// block's sums from (q_n, p_n), then q advanced unless `store`. The same terms, summed in the
-/// same order as [`observe_range`] block by block (term t of a block into partial sum t mod 8,
-/// the tree), so the same bits; a block of one or two coordinates is its term or the sum of
-/// its two, as the tree makes them.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn many_blocks<L: Real, Sh: Shape>(
-    sh: &Sh,
-    (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
-    store: bool,
-    fast: &FastRows<'_, L, Sh>,
-    w: &Weights<L, Sh::S<L>>,
-    plain: bool,
-    blocks: &mut [L],
-) -> (L, L) {
-    let (ns, n) = (sh.ns(), sh.n());
-    for i in ns..n {
-        let (next, pi, _, _) = fast.at(i, d[i], q[i], f[i]);
-        d[i] = next;
-        p[i] = pi;
-    }
-    let (w2, mp, mq) = (
-        &w.omega2.get()[..n],
-        &w.modified_p.get()[..n],
-        &w.modified_q.get()[..n],
-    );
-    let totals = {
-        let (q, p) = (&*q, &*p);
-        let terms = |i: usize| {
-            let (c, pi, qi) = (sh.coef(i), p[i], q[i]);
-            let m = if plain {
-                L::zero()
-            } else {
-                modified(pi, qi, at(mp, c), at(mq, c))
-            };
-            (oscillator(pi, qi, at(w2, c)), m)
-        };
-        over_blocks(ns, sh.block_ends(), blocks, |a, b| match b - a {
-            1 => terms(a),
-            2 => {
-                let ((e0, m0), (e1, m1)) = (terms(a), terms(a + 1));
-                (e0 + e1, m0 + m1)
-            }
-            count => {
-                let (mut e, mut m) = (Sum8::new(), Sum8::new());
-                for t in 0..count {
-                    let (x, y) = terms(a + t);
-                    e.add(t % 8, t >= 8, x);
-                    m.add(t % 8, t >= 8, y);
-                }
-                (e.total(count), m.total(count))
-            }
-        })
-    };
-    if !store {
-        for i in ns..n {
-            q[i] += d[i];
-        }
-    }
-    totals
 }
 
 /// After a two-step [`Observe::State`] step: q_{n+1} = q_n + d_{n+1}.
@@ -473,20 +435,16 @@ fn over_blocks<L: Real>(
     blocks: &mut [L],
     mut block: impl FnMut(usize, usize) -> (L, L),
 ) -> (L, L) {
-    let (mut total, mut modified) = (L::zero(), L::zero());
+    let (mut total, mut modified) = (Sum8::new(), Sum8::new());
     let mut start = ns;
     for (j, &end) in ends.iter().enumerate() {
         let (e, m) = block(start, end);
         blocks[j] = e;
-        if j == 0 {
-            (total, modified) = (e, m);
-        } else {
-            total += e;
-            modified += m;
-        }
+        total.add(j % 8, j >= 8, e);
+        modified.add(j % 8, j >= 8, m);
         start = end;
     }
-    (total, modified)
+    (total.total(ends.len()), modified.total(ends.len()))
 }
 
 /// The energy sums of a state given whole (q_n, p_n): the one-step form's observation and the

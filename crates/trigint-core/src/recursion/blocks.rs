@@ -1,0 +1,201 @@
+//! The observing sweep of many blocks: a wave equation's 10⁴–10⁶ Fourier modes, each its own
+//! block, observed in one pass over the state per step.
+
+use super::{modified, oscillator, FastRows, Term};
+use crate::coefficients::Weights;
+use crate::energy::PairForms;
+use crate::real::Real;
+use crate::shape::{Shape, Storage};
+use crate::sum::Sum8;
+
+/// What the observing sweep of many blocks takes along in the same pass over the state, so
+/// that a wave equation's 10⁵ coordinates are read from the outer caches once per step rather
+/// than once per quantity. The same terms in the same order as the separate loops (the
+/// extremes of [`crate::energy::Extremes::update_half_blocks`], the sums of
+/// [`PairForms::evaluate`]), so the same bits.
+pub struct Riders<'a, L> {
+    /// The running max and min of each block's energy: the sweep halves the per-block sums into
+    /// I_j and takes their extremes.
+    pub extremes: Option<(&'a mut [L], &'a mut [L])>,
+    /// Pair forms that [`PairForms::rides_along`] a sweep of these blocks, and where their
+    /// per-axis values go; the sweep then advances q itself.
+    pub pairs: Option<(&'a PairForms, &'a mut [L])>,
+}
+
+impl<L> Riders<'_, L> {
+    pub fn none() -> Self {
+        Riders {
+            extremes: None,
+            pairs: None,
+        }
+    }
+}
+
+/// Coordinates per pass of [`many_blocks`], at most (unless one block is longer): the state,
+/// rows and block sums of a pass stay in the first-level cache between its loops.
+const PASS: usize = 256;
+
+/// Axes of the pair forms a sweep takes along (a wave equation's momentum has d ≤ 3).
+pub const MAX_RIDING_AXES: usize = 3;
+
+/// Pairs per chunk of the pair forms' terms in [`many_blocks`].
+const PAIR_CHUNK: usize = 64;
+
+/// The observing sweep of many blocks (a wave equation has one per Fourier mode, 10⁴–10⁶ of
+/// them), in passes of whole blocks (about [`PASS`] coordinates, a multiple of eight blocks):
+/// the step over the pass's coordinates in one flat loop with p_n stored, each block's sums
+/// from (q_n, p_n), what [`Riders`] asks for, then q advanced unless `store`.
+///
+/// The order of the sums: within a block its terms as [`observe_range`] sums them (term t into
+/// partial sum t mod 8, the tree; a block of one or two coordinates is its term or the sum of
+/// its two); over the blocks, block j into partial sum j mod 8 (see [`crate::sum`]). Nothing
+/// depends on where the passes are cut. (One sweep per loop over 10⁵ coordinates would read
+/// the state from the outer caches once per loop.)
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn many_blocks<L: Real, Sh: Shape>(
+    sh: &Sh,
+    (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
+    store: bool,
+    fast: &FastRows<'_, L, Sh>,
+    w: &Weights<L, Sh::S<L>>,
+    plain: bool,
+    blocks: &mut [L],
+    mut riders: Riders<'_, L>,
+) -> (L, L) {
+    let (ns, n) = (sh.ns(), sh.n());
+    let (w2, mp, mq) = (
+        &w.omega2.get()[..n],
+        &w.modified_p.get()[..n],
+        &w.modified_q.get()[..n],
+    );
+    let ends = sh.block_ends();
+    let blocks = &mut blocks[..ends.len()];
+    let half = L::splat(0.5);
+    let (mut total, mut modified_total) = (Sum8::new(), Sum8::new());
+    // The pair forms' sums, and the next pair.
+    let mut pair_sums = [Sum8::<L>::new(); MAX_RIDING_AXES];
+    let mut next_pair = 0;
+    let mut pair_terms = riders.pairs.as_ref().map(|_| [L::zero(); PAIR_CHUNK]);
+    // The pair forms need q_n: a sweep that computes them is asked to advance q itself.
+    debug_assert!(!(store && riders.pairs.is_some()));
+    // Shapes of many blocks read their numbers at each coordinate (see `Shape::coef`).
+    debug_assert!(sh.uniform().is_none() && (ns..n).all(|i| sh.coef(i) == i));
+    let (mut j, mut start) = (0, ns);
+    while j < ends.len() {
+        // The pass: blocks j..j_end, coordinates start..end.
+        let mut j_end = (j + 8).min(ends.len());
+        while j_end < ends.len() && ends[(j_end + 8).min(ends.len()) - 1] - start <= PASS {
+            j_end = (j_end + 8).min(ends.len());
+        }
+        let end = ends[j_end - 1];
+        for i in start..end {
+            let (next, pi, _, _) = fast.at(i, d[i], q[i], f[i]);
+            d[i] = next;
+            p[i] = pi;
+        }
+        let energies = &mut blocks[j..j_end];
+        let (qs, ps, w2s) = (&q[start..end], &p[start..end], &w2[start..end]);
+        if plain && end - start == 2 * (j_end - j) {
+            // Blocks of two coordinates each (the modes of a wave equation): a flat loop.
+            for (e, ((qq, pp), ww)) in energies.iter_mut().zip(
+                qs.chunks_exact(2)
+                    .zip(ps.chunks_exact(2))
+                    .zip(w2s.chunks_exact(2)),
+            ) {
+                *e = oscillator(pp[0], qq[0], ww[0]) + oscillator(pp[1], qq[1], ww[1]);
+            }
+        } else {
+            let terms = |i: usize| {
+                let (pi, qi) = (p[i], q[i]);
+                let m = if plain {
+                    L::zero()
+                } else {
+                    modified(pi, qi, mp[i], mq[i])
+                };
+                (oscillator(pi, qi, w2[i]), m)
+            };
+            let mut a = start;
+            for (jj, &b) in ends.iter().enumerate().take(j_end).skip(j) {
+                let (e, m) = match b - a {
+                    1 => terms(a),
+                    2 => {
+                        let ((e0, m0), (e1, m1)) = (terms(a), terms(a + 1));
+                        (e0 + e1, m0 + m1)
+                    }
+                    count => {
+                        let (mut e, mut m) = (Sum8::new(), Sum8::new());
+                        for t in 0..count {
+                            let (x, y) = terms(a + t);
+                            e.add(t % 8, t >= 8, x);
+                            m.add(t % 8, t >= 8, y);
+                        }
+                        (e.total(count), m.total(count))
+                    }
+                };
+                blocks[jj] = e;
+                if !plain {
+                    modified_total.add(jj % 8, jj >= 8, m);
+                }
+                a = b;
+            }
+        }
+        let energies = &mut blocks[j..j_end];
+        total.add_from(j, energies);
+        if let Some((high, low)) = &mut riders.extremes {
+            let (high, low) = (&mut high[j..j_end], &mut low[j..j_end]);
+            for ((e, hi), lo) in energies.iter_mut().zip(high.iter_mut()).zip(low.iter_mut()) {
+                let x = half * *e;
+                *e = x;
+                *hi = hi.keep_max(x);
+                *lo = lo.keep_min(x);
+            }
+        }
+        if let Some((forms, _)) = &riders.pairs {
+            // Every pair inside this pass (no block end splits one): q_n and p_n are here.
+            let (a0, count, axes) = forms.riding().expect("checked by rides_along");
+            let first = next_pair;
+            while next_pair < count && a0 + 2 * next_pair + 1 < end {
+                next_pair += 1;
+            }
+            let buffer = pair_terms.as_mut().expect("made with the pair forms");
+            for lo in (first..next_pair).step_by(PAIR_CHUNK) {
+                let hi = (lo + PAIR_CHUNK).min(next_pair);
+                let from = a0 + 2 * lo;
+                let (qs, ps) = (&q[from..a0 + 2 * hi], &p[from..a0 + 2 * hi]);
+                let x = &mut buffer[..hi - lo];
+                for (m, sum) in pair_sums.iter_mut().enumerate().take(axes) {
+                    let wm = &forms.weights[m * count + lo..m * count + hi];
+                    for (((x, qq), pp), &wt) in x
+                        .iter_mut()
+                        .zip(qs.chunks_exact(2))
+                        .zip(ps.chunks_exact(2))
+                        .zip(wm)
+                    {
+                        *x = L::splat(wt) * (qq[0] * pp[1] - qq[1] * pp[0]);
+                    }
+                    sum.add_from(lo, x);
+                }
+            }
+        }
+        if !store {
+            for i in start..end {
+                q[i] += d[i];
+            }
+        }
+        (j, start) = (j_end, end);
+    }
+    if let Some((forms, out)) = riders.pairs {
+        debug_assert_eq!(next_pair, forms.a.len());
+        for (k, sum) in out.iter_mut().zip(&pair_sums) {
+            *k = sum.total(next_pair);
+        }
+    }
+    let m = if plain {
+        L::zero()
+    } else {
+        modified_total.total(ends.len())
+    };
+    (total.total(ends.len()), m)
+}
+
