@@ -102,7 +102,11 @@ impl PairForms {
     /// [`MAX_RIDING_AXES`](crate::recursion::MAX_RIDING_AXES) axes.
     pub fn riding(&self) -> Option<(usize, usize, usize)> {
         let a0 = self.consecutive?;
-        (self.axes() <= crate::recursion::MAX_RIDING_AXES).then_some((a0, self.a.len(), self.axes()))
+        (self.axes() <= crate::recursion::MAX_RIDING_AXES).then_some((
+            a0,
+            self.a.len(),
+            self.axes(),
+        ))
     }
 
     /// Whether the forms can ride along the sweep of the blocks ending at `ends` over the
@@ -114,7 +118,9 @@ impl PairForms {
         let last = a0 + 2 * count;
         a0 >= ns && ends.last().is_some_and(|&e| e >= last) && {
             // No block ends between the two coordinates of a pair: at a0 + 2t + 1.
-            !ends.iter().any(|&e| e > a0 && e < last && (e - a0) % 2 == 1)
+            !ends
+                .iter()
+                .any(|&e| e > a0 && e < last && (e - a0) % 2 == 1)
         }
     }
 

@@ -141,7 +141,14 @@ impl Potential for Wave {
     fn workspace<L: Real>(&self) -> WaveWorkspace {
         let n = self.grid.points();
         WaveWorkspace {
-            fourier: vec![0.0; if self.in_place::<L>(&[]).is_some() { 0 } else { n }],
+            fourier: vec![
+                0.0;
+                if self.in_place::<L>(&[]).is_some() {
+                    0
+                } else {
+                    n
+                }
+            ],
             grid: GridWorkspace {
                 u: vec![0.0; n],
                 g: vec![0.0; n],

@@ -198,4 +198,3 @@ pub(super) fn many_blocks<L: Real, Sh: Shape>(
     };
     (total.total(ends.len()), m)
 }
-

@@ -205,7 +205,10 @@ impl<
                 recursion::evaluate(sh, pot, ws, k, st, TRACK, phi, INLINE)?;
                 let riders = if TRACK && many {
                     Riders {
-                        extremes: Some((&mut ext.block_high[..n_blocks], &mut ext.block_low[..n_blocks])),
+                        extremes: Some((
+                            &mut ext.block_high[..n_blocks],
+                            &mut ext.block_low[..n_blocks],
+                        )),
                         pairs: riding.map(|f| (f, &mut axes[..])),
                     }
                 } else {
