@@ -50,7 +50,8 @@ const PAIR_CHUNK: usize = 64;
 /// partial sum t mod 8, the tree; a block of one or two coordinates is its term or the sum of
 /// its two); over the blocks, block j into partial sum j mod 8 (see [`crate::sum`]). Nothing
 /// depends on where the passes are cut. (One sweep per loop over 10⁵ coordinates would read
-/// the state from the outer caches once per loop.)
+/// the state from the outer caches once per loop.) Inlined into the hot loop, where `plain`
+/// and the riders are known: outlined, the 2¹⁶-point wave step took 355 instead of 320 µs.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn many_blocks<L: Real, Sh: Shape>(
