@@ -272,8 +272,11 @@ def _methods(ds: xr.Dataset) -> list[Claim]:
 
 
 def _wave(ds: xr.Dataset) -> list[Claim]:
-    """Away from the flagged step sizes the energy error is O(h^order); the largest error of the
-    scan is a peak (peak_factor × the median) at a flagged step size."""
+    """Away from the flagged step sizes the energy error is O(h^order) and the harmonic actions
+    of the lowest modes move by at most action_bound, the same at every such step size (the
+    near-conservation of actions of Cohen, Hairer, Lubich 2008); the largest energy error of the
+    scan is a peak (peak_factor × the median) at a flagged step size, and so is the largest
+    action deviation (action_factor × the largest away from the flags)."""
     from .wave_runner import flagged
 
     fig, a = ds.attrs["figure"], ds.attrs
@@ -291,4 +294,24 @@ def _wave(ds: xr.Dataset) -> list[Claim]:
         Claim(fig, "the largest energy error of the scan is a resonance peak the tool flags",
               factor, f"≥ {a['peak_factor']:g} × the median, at a flagged h (h = {h[top]:.4f})",
               "flagged: " + ("yes" if near[top] else "no"), bool(near[top] and factor >= a["peak_factor"])),
+        *_wave_actions(ds, near),
+    ]
+
+
+def _wave_actions(ds: xr.Dataset, near: np.ndarray) -> list[Claim]:
+    """The actions' claims of the wave figure (see `_wave`)."""
+    fig, a = ds.attrs["figure"], ds.attrs
+    h, act = ds.h.values, ds.action_deviation.values
+    calm = ~near & np.isfinite(act)
+    worst_calm = float(np.max(act[calm])) if calm.any() else np.nan
+    finite = np.where(np.isfinite(act), act, np.inf)
+    top = int(np.argmax(finite))
+    factor = float(finite[top] / worst_calm)
+    return [
+        Claim(fig, "the lowest modes' actions are nearly kept at every step size the tool does not flag",
+              worst_calm, f"≤ {a['action_bound']:g} (relative, largest over those step sizes)",
+              f"≤ {a['action_bound']:g}", bool(worst_calm <= a["action_bound"])),
+        Claim(fig, "the largest action deviation of the scan is at a flagged step size", factor,
+              f"≥ {a['action_factor']:g} × the largest away from the flags (h = {h[top]:.4f})",
+              "flagged: " + ("yes" if near[top] else "no"), bool(near[top] and factor >= a["action_factor"])),
     ]

@@ -185,7 +185,7 @@ KEYS = {
         **COMMON, "problem": Str(("wave",)), "n": Int(2, 2**16), "rho": NONNEG, "potential": Str(),
         "amplitude": POSITIVE, "method": Method(), "h_min": POSITIVE, "h_max": POSITIVE, "points": Int(2, 10**5),
         "t_end": POSITIVE, "tolerance": POSITIVE, "order": Float(), "order_tolerance": POSITIVE,
-        "peak_factor": POSITIVE,
+        "peak_factor": POSITIVE, "action_bound": POSITIVE, "action_factor": POSITIVE,
     },
 }
 REQUIRED = {

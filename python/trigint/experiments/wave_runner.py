@@ -42,7 +42,9 @@ def run_wave(fig: dict) -> xr.Dataset:
         attrs={"t_end": t_end, "method": str(fig.get("method", "B")), "n": int(fig["n"]),
                "tolerance": tolerance, "order": float(fig.get("order", 2.0)),
                "order_tolerance": float(fig.get("order_tolerance", 0.3)),
-               "peak_factor": float(fig.get("peak_factor", 10.0))},
+               "peak_factor": float(fig.get("peak_factor", 10.0)),
+               "action_bound": float(fig.get("action_bound", 0.05)),
+               "action_factor": float(fig.get("action_factor", 5.0))},
     )
 
 
