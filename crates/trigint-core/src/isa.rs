@@ -13,6 +13,14 @@ pub trait Kernel {
     const AVX2: bool = true;
     /// The loop; `#[inline(always)]`, so that each copy below compiles it for its features.
     fn run(&mut self) -> Self::Output;
+    /// The loop in the copy whose vector registers hold `vector_bytes` bytes (64 for AVX-512,
+    /// 32 for AVX2, 16 for the baseline), a constant in each copy: for loops that cut their
+    /// work to the registers they have. The same bits whatever the value.
+    #[inline(always)]
+    fn run_for(&mut self, vector_bytes: usize) -> Self::Output {
+        let _ = vector_bytes;
+        self.run()
+    }
 }
 
 /// The instruction sets the kernels may use here: the CPU's, capped by the environment
@@ -70,21 +78,21 @@ pub fn run<K: Kernel>(k: &mut K) -> K::Output {
 
 #[inline(never)]
 fn run_baseline<K: Kernel>(k: &mut K) -> K::Output {
-    k.run()
+    k.run_for(16)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline(never)]
 unsafe fn run_avx512<K: Kernel>(k: &mut K) -> K::Output {
-    k.run()
+    k.run_for(64)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 unsafe fn run_avx2<K: Kernel>(k: &mut K) -> K::Output {
-    k.run()
+    k.run_for(32)
 }
 
 /// `f()` in the best copy for this CPU: a loop over long vectors written as a closure (the

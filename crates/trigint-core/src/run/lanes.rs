@@ -73,6 +73,15 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
 
     #[inline(always)]
     fn run(&mut self) -> Option<u64> {
+        self.run_for(64)
+    }
+
+    #[inline(always)]
+    fn run_for(&mut self, vector_bytes: usize) -> Option<u64> {
+        // With 16 vector registers (AVX2) a bundle of 8 lanes does not fit them (FPU m = 3:
+        // 6 coordinates × (q, d) × 2 registers): the lanes go four at a time, one register
+        // per number, as the C loop over trajectories goes.
+        let group = if vector_bytes == 32 { 4 } else { L::LANES };
         let (sh, pot, k, w) = (self.sh, self.pot, self.k, self.w);
         let width = L::LANES;
         let n_coords = sh.n();
@@ -96,7 +105,14 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         );
         let guard_lanes = &mut guard_lanes[..width];
         for j in self.n..self.e {
-            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(sh, pot, k, w, q, d, high, low, guard_lanes);
+            step_lanes::<L, Sh, P, TRACK, PLAIN, PHI>(
+                sh,
+                pot,
+                k,
+                w,
+                (q, d, high, low, guard_lanes),
+                group,
+            );
             if j % CHECK == 0 || j + 1 == self.e {
                 // Tracked: the sticky sum of the total energies; else the positions.
                 let mut bad = LaneSet::EMPTY;
@@ -113,15 +129,59 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
     }
 }
 
+/// The bundle's rows a lane step reads and writes: q, d, the extremes' high and low, the guard.
+type LaneRows<'a> = (
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+);
+
 /// One step of every lane of a bundle, lane by lane: each lane's numbers gathered from the
 /// bundle's rows (lane b of coordinate i at `i * width + b`), its step in `f64`, its numbers
-/// scattered back, its extremes and guard updated. The rows come in as separate arguments
-/// (not in tuples, which are passed through memory): so they are known not to overlap, and the
-/// compiler vectorizes the loop over the lanes without run-time overlap tests (which a loop of
-/// 8 trips is not worth to it).
+/// scattered back, its extremes and guard updated; the lanes in groups of `group` (a constant
+/// of each copy), with a compiler barrier between groups so that their steps are not
+/// interleaved. The rows come in as separate slices (mutable borrows, so known not to
+/// overlap): the compiler vectorizes the loop over the lanes without run-time overlap tests
+/// (which a loop of 8 trips is not worth to it).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn step_lanes<
+    L: Real,
+    Sh: Shape,
+    P: Potential,
+    const TRACK: bool,
+    const PLAIN: bool,
+    const PHI: bool,
+>(
+    sh: &Sh,
+    pot: &P,
+    k: &Coef<L, Sh::S<L>>,
+    w: &Weights<L, Sh::S<L>>,
+    (q, d, high, low, guard): LaneRows<'_>,
+    group: usize,
+) {
+    let width = L::LANES;
+    let mut first = 0;
+    while first < width {
+        let last = (first + group).min(width);
+        step_lane_group::<L, Sh, P, TRACK, PLAIN, PHI>(
+            sh, pot, k, w, q, d, high, low, guard, first, last,
+        );
+        if last < width {
+            // SAFETY: an empty instruction; it only keeps the compiler from moving memory
+            // accesses across it, so the next group's loads come after this group's stores.
+            unsafe { std::arch::asm!("", options(nostack, preserves_flags)) };
+        }
+        first = last;
+    }
+}
+
+/// Lanes first..last of [`step_lanes`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn step_lane_group<
     L: Real,
     Sh: Shape,
     P: Potential,
@@ -138,6 +198,8 @@ fn step_lanes<
     high: &mut [f64],
     low: &mut [f64],
     guard: &mut [f64],
+    first: usize,
+    last: usize,
 ) {
     let width = L::LANES;
     let n_coords = sh.n();
@@ -146,8 +208,8 @@ fn step_lanes<
     } else {
         Observe::No
     };
-    let mut b = 0;
-    while b < width {
+    let mut b = first;
+    while b < last {
         let kb: Coef<f64, Sh::S<f64>> = k.lane(b);
         let mut s = State::<f64, Sh>::new(sh);
         for i in 0..n_coords {
