@@ -151,10 +151,19 @@ impl<
 
     #[inline(always)]
     fn run(&mut self) -> CoreResult<Option<u64>> {
+        self.run_for(64)
+    }
+
+    #[inline(always)]
+    fn run_for(&mut self, vector_bytes: usize) -> CoreResult<Option<u64>> {
         // The state and the extremes as locals of this function: in registers for small shapes.
         let mut st = std::mem::replace(&mut self.st, State::placeholder());
         let mut ext = std::mem::replace(&mut self.ext, Extremes::placeholder());
-        let found = self.steps(&mut st, &mut ext);
+        // With 16 vector registers (AVX2 and the baseline) one trajectory's state and its
+        // extremes do not fit them: the extremes go to memory at every step (off the step's
+        // critical path), which leaves the registers to the state.
+        let extremes_in_memory = vector_bytes < 64 && L::LANES == 1;
+        let found = self.steps(&mut st, &mut ext, extremes_in_memory);
         self.st = st;
         self.ext = ext;
         found
@@ -173,7 +182,12 @@ impl<
     > HotLoop<'_, L, Sh, P, TWO_STEP, TRACK, PLAIN, PHI, INLINE>
 {
     #[inline(always)]
-    fn steps(&mut self, st: &mut State<L, Sh>, ext: &mut Extremes<L>) -> CoreResult<Option<u64>> {
+    fn steps(
+        &mut self,
+        st: &mut State<L, Sh>,
+        ext: &mut Extremes<L>,
+        extremes_in_memory: bool,
+    ) -> CoreResult<Option<u64>> {
         let (sh, pot, k, w) = (self.sh, self.pot, self.k, self.w);
         let (active, n, e) = (self.active, self.n, self.e);
         let ws = &mut *self.ws;
@@ -236,6 +250,11 @@ impl<
                 let main = sums.channels(st.u, PLAIN);
                 guard += main[TOTAL] * zero;
                 ext.update(&main, PLAIN);
+                if extremes_in_memory {
+                    // The extremes' address escapes: they are stored here and reloaded when
+                    // next needed, rather than kept in registers across the step.
+                    std::hint::black_box(&mut *ext);
+                }
                 if many && TWO_STEP {
                     // The blocks' extremes were taken by the sweep.
                     ext.update_axes(n_blocks, axes);
