@@ -230,3 +230,22 @@ def test_energies_of_given_grid_states_match_the_streamed_ones():
     assert np.allclose(e["total"].values, sol.energies["total"].values, rtol=1e-14)
     action = sol.energies["action"].isel(mode=2)  # block 3
     assert np.allclose(e["oscillatory_3"].values, action.values * float(action.omega), rtol=1e-13)
+
+
+def test_the_streamed_extremes_are_those_of_the_samples_of_every_step():
+    # In 1-D the observing sweep takes each mode's extremes and the momentum along its pass over
+    # the state; the samples are observed on their own. With a sample at every step the two must
+    # give the same maximal deviations: bit for bit for H, H_ω, H_slow and the momentum.
+    prob = ti.problems.wave(64, rho=1.0, potential="u**4/4 + u**3/3")
+    u0, v0 = smooth_data((64,), seed=8)
+    sol = ti.integrate(prob, "C", u0, v0, h=0.05, n_steps=150, save_every=1)
+    e = sol.energies
+    for name in ("total", "oscillatory", "slow"):
+        assert sol.max_deviation[name] == np.max(np.abs(e[name].values - e[name].values[0]))
+    k = e["momentum"].values[:, 0]
+    assert sol.max_deviation["momentum_1"] == np.max(np.abs(k - k[0])) > 0
+    action = e["action"]
+    mode_energy = action.values * action.omega.values
+    for b in range(action.sizes["mode"]):
+        want = np.max(np.abs(mode_energy[:, b] - mode_energy[0, b]))
+        assert sol.max_deviation[f"oscillatory_{b + 1}"] == pytest.approx(want, rel=1e-12, abs=1e-18)

@@ -208,6 +208,16 @@ mod tests {
             assert_eq!(sliced.total(n).to_bits(), expected.to_bits(), "n = {n}");
             let (s, _) = pairwise!(f64, 0, n, |i| (terms[i], 0.0));
             assert_eq!(s.to_bits(), expected.to_bits(), "n = {n}");
+            // Slices starting anywhere (the passes of the sweep of many blocks).
+            for cuts in [vec![3, 11], vec![1, 2, 17, 30], vec![7, 8, 9]] {
+                let mut pieces = Sum8::<f64>::new();
+                let mut from = 0;
+                for c in cuts.into_iter().map(|c| c.min(n)).chain([n]) {
+                    pieces.add_from(from, &terms[from..c.max(from)]);
+                    from = c.max(from);
+                }
+                assert_eq!(pieces.total(n).to_bits(), expected.to_bits(), "n = {n}");
+            }
         }
     }
 }
