@@ -54,6 +54,10 @@ pub struct PairForms {
     consecutive: Option<usize>,
 }
 
+/// Axes of the pair forms the observing sweep of many blocks takes along (a wave equation's
+/// momentum has d ≤ 3).
+pub const MAX_RIDING_AXES: usize = 3;
+
 /// The first coordinate a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), …: the modes of a
 /// 1-D wave equation in the grid's order, read without an index.
 fn consecutive(a: &[usize], b: &[usize]) -> Option<usize> {
@@ -97,16 +101,12 @@ impl PairForms {
     }
 
     /// (a₀, pairs, axes) when the observing sweep of these blocks can compute the forms in its
-    /// pass (see [`crate::recursion::Riders`]): consecutive pairs, none split by a block end,
+    /// pass (its riders, recursion/blocks.rs): consecutive pairs, none split by a block end,
     /// all among the oscillatory coordinates, at most
-    /// [`MAX_RIDING_AXES`](crate::recursion::MAX_RIDING_AXES) axes.
+    /// [`MAX_RIDING_AXES`] axes.
     pub fn riding(&self) -> Option<(usize, usize, usize)> {
         let a0 = self.consecutive?;
-        (self.axes() <= crate::recursion::MAX_RIDING_AXES).then_some((
-            a0,
-            self.a.len(),
-            self.axes(),
-        ))
+        (self.axes() <= MAX_RIDING_AXES).then_some((a0, self.a.len(), self.axes()))
     }
 
     /// Whether the forms can ride along the sweep of the blocks ending at `ends` over the
@@ -264,7 +264,7 @@ impl<L: Real> Extremes<L> {
     }
 
     /// The per-axis channels' extremes alone (the blocks' taken by the sweep, see
-    /// [`crate::recursion::Riders`]).
+    /// riders of recursion/blocks.rs).
     #[inline(always)]
     pub fn update_axes(&mut self, n_blocks: usize, axes: &[L]) {
         for (k, &e) in axes.iter().enumerate() {

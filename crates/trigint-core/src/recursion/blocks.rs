@@ -3,7 +3,7 @@
 
 use super::{modified, oscillator, FastRows, Term};
 use crate::coefficients::Weights;
-use crate::energy::PairForms;
+use crate::energy::{PairForms, MAX_RIDING_AXES};
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
 use crate::sum::Sum8;
@@ -34,9 +34,6 @@ impl<L> Riders<'_, L> {
 /// Coordinates per pass of [`many_blocks`], at most (unless one block is longer): the state,
 /// rows and block sums of a pass stay in the first-level cache between its loops.
 const PASS: usize = 256;
-
-/// Axes of the pair forms a sweep takes along (a wave equation's momentum has d ≤ 3).
-pub const MAX_RIDING_AXES: usize = 3;
 
 /// Pairs per chunk of the pair forms' terms in [`many_blocks`].
 const PAIR_CHUNK: usize = 64;

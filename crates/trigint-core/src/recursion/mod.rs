@@ -27,7 +27,7 @@ use crate::sum::{pairwise, Sum8};
 mod blocks;
 
 use blocks::many_blocks;
-pub use blocks::{Riders, MAX_RIDING_AXES};
+pub use blocks::Riders;
 
 /// What a step computes besides advancing.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
