@@ -215,6 +215,19 @@ pub struct Extremes<L> {
     pub block_low: Vec<L>,
 }
 
+/// Per-block sums Σ(p² + ω²q²) halved in place into the block energies I_j, with their
+/// running maxima in `high` and minima in `low` (the same slices' lengths).
+#[inline(always)]
+pub fn halve_into_extremes<L: Real>(sums: &mut [L], high: &mut [L], low: &mut [L]) {
+    let half = L::splat(0.5);
+    for ((s, hi), lo) in sums.iter_mut().zip(high.iter_mut()).zip(low.iter_mut()) {
+        let e = half * *s;
+        *s = e;
+        *hi = hi.keep_max(e);
+        *lo = lo.keep_min(e);
+    }
+}
+
 impl<L: Real> Extremes<L> {
     /// For ℓ blocks and `axes` per-axis channels.
     pub fn new(n_blocks: usize, axes: usize) -> Self {
@@ -278,20 +291,13 @@ impl<L: Real> Extremes<L> {
     /// blocks).
     #[inline(always)]
     pub fn update_half_blocks(&mut self, blocks: &mut [L], axes: &[L]) {
-        let half = L::splat(0.5);
-        let (high, low) = (&mut self.block_high[..], &mut self.block_low[..]);
-        let (high, low) = (&mut high[..blocks.len()], &mut low[..blocks.len()]);
-        for ((s, hi), lo) in blocks.iter_mut().zip(high.iter_mut()).zip(low.iter_mut()) {
-            let e = half * *s;
-            *s = e;
-            *hi = hi.keep_max(e);
-            *lo = lo.keep_min(e);
-        }
         let nb = blocks.len();
-        for (k, &e) in axes.iter().enumerate() {
-            self.block_high[nb + k] = self.block_high[nb + k].keep_max(e);
-            self.block_low[nb + k] = self.block_low[nb + k].keep_min(e);
-        }
+        halve_into_extremes(
+            blocks,
+            &mut self.block_high[..nb],
+            &mut self.block_low[..nb],
+        );
+        self.update_axes(nb, axes);
     }
 
     /// The extremes of lane b in channel order (I_1 = H_ω for ℓ = 1; the per-axis channels

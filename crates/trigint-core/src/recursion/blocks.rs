@@ -3,7 +3,7 @@
 
 use super::{modified, oscillator, FastRows, Term};
 use crate::coefficients::Weights;
-use crate::energy::{PairForms, MAX_RIDING_AXES};
+use crate::energy::{halve_into_extremes, PairForms, MAX_RIDING_AXES};
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
 use crate::sum::Sum8;
@@ -69,7 +69,6 @@ pub(super) fn many_blocks<L: Real, Sh: Shape>(
     );
     let ends = sh.block_ends();
     let blocks = &mut blocks[..ends.len()];
-    let half = L::splat(0.5);
     let (mut total, mut modified_total) = (Sum8::new(), Sum8::new());
     // The pair forms' sums, and the next pair.
     let mut pair_sums = [Sum8::<L>::new(); MAX_RIDING_AXES];
@@ -141,13 +140,7 @@ pub(super) fn many_blocks<L: Real, Sh: Shape>(
         let energies = &mut blocks[j..j_end];
         total.add_from(j, energies);
         if let Some((high, low)) = &mut riders.extremes {
-            let (high, low) = (&mut high[j..j_end], &mut low[j..j_end]);
-            for ((e, hi), lo) in energies.iter_mut().zip(high.iter_mut()).zip(low.iter_mut()) {
-                let x = half * *e;
-                *e = x;
-                *hi = hi.keep_max(x);
-                *lo = lo.keep_min(x);
-            }
+            halve_into_extremes(energies, &mut high[j..j_end], &mut low[j..j_end]);
         }
         if let Some((forms, _)) = &riders.pairs {
             // Every pair inside this pass (no block end splits one): q_n and p_n are here.

@@ -63,30 +63,25 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
     /// A state that owns no memory, to stand in while the real one is moved out.
     #[inline(always)]
     pub fn placeholder() -> Self {
-        let z = Sh::S::<L>::placeholder;
-        State {
-            q: z(),
-            d: z(),
-            p: z(),
-            f: z(),
-            x: z(),
-            q_next: z(),
-            f_prev: z(),
-            u: L::zero(),
-        }
+        Self::from_rows(Sh::S::<L>::placeholder)
     }
 
     #[inline(always)]
     pub fn new(sh: &Sh) -> Self {
-        let z = || Sh::S::<L>::filled(sh.n(), L::zero());
+        Self::from_rows(|| Sh::S::<L>::filled(sh.n(), L::zero()))
+    }
+
+    /// Every row from `row()`, U zero.
+    #[inline(always)]
+    fn from_rows(row: impl Fn() -> Sh::S<L>) -> Self {
         State {
-            q: z(),
-            d: z(),
-            p: z(),
-            f: z(),
-            x: z(),
-            q_next: z(),
-            f_prev: z(),
+            q: row(),
+            d: row(),
+            p: row(),
+            f: row(),
+            x: row(),
+            q_next: row(),
+            f_prev: row(),
             u: L::zero(),
         }
     }
