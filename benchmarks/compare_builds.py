@@ -45,6 +45,14 @@ U = sum(sum(c * x[i] for i, c in row) ** 4 for row in fpu_linear_forms(3)) / 4
 expr = ti.OscillatoryProblem([0, 0, 0, 50, 50, 50], ti.ExpressionPotential(U, x))
 big = ti.problems.fpu(m=1000, omega=50.0)
 bq, bp = ti.problems.fpu_initial(m=1000, omega=50.0)
+springs = np.zeros((1001, 2000))
+for k, row in enumerate(fpu_linear_forms(1000)):
+    for i, c in row:
+        springs[k, i] = c
+chain = ti.OscillatoryProblem(big.omega, ti.ChainPotential(2000).add("y**4/4", "y", matrix=springs))
+W = 300
+wave = ti.problems.wave(2**16, rho=1.0, potential="u**4/4")
+u0 = 0.1 * np.cos(2 * np.pi * np.arange(2**16) / 2**16)
 rows = {
     "one trajectory, energies streamed": best(lambda: ti.integrate(prob, "B", q0, p0, h=H, n_steps=N, save_every=N), N),
     "one trajectory, no energies": best(
@@ -61,6 +69,10 @@ rows = {
     "FPU as an expression, 1000 trajectories": best(
         lambda: ti.ensemble(expr, "B", Q0, P0, h=H, n_steps=S, threads=1), S * 1000),
     "FPU m = 1000, one trajectory": best(lambda: ti.integrate(big, "B", bq, bp, h=H, n_steps=M, save_every=M), M),
+    "FPU m = 1000 as a chain, one trajectory": best(
+        lambda: ti.integrate(chain, "B", bq, bp, h=H, n_steps=M // 4, save_every=M // 4), M // 4),
+    "wave equation, 2^16 points, energies streamed": best(
+        lambda: ti.integrate(wave, "B", u0, np.zeros_like(u0), h=0.01, n_steps=W, save_every=W, progress=False), W),
 }
 for name, ns in rows.items():
     print(f"{name}\t{ns:.4f}")

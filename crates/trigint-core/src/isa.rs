@@ -11,6 +11,9 @@ pub trait Kernel {
     const WIDE: bool = true;
     /// Worth an AVX2 copy besides the AVX-512 one.
     const AVX2: bool = true;
+    /// Worth an AVX-512 copy besides the AVX2 one; when false, a CPU with AVX-512 runs the AVX2
+    /// copy (each copy is a whole optimized function to build).
+    const AVX512: bool = true;
     /// The loop; `#[inline(always)]`, so that each copy below compiles it for its features.
     fn run(&mut self) -> Self::Output;
     /// The loop in the copy whose vector registers hold `vector_bytes` bytes (64 for AVX-512,
@@ -64,7 +67,7 @@ pub fn run<K: Kernel>(k: &mut K) -> K::Output {
     #[cfg(target_arch = "x86_64")]
     if K::WIDE {
         let isa = allowed();
-        if isa.avx512 {
+        if K::AVX512 && isa.avx512 {
             // SAFETY: the CPU supports AVX-512F (`allowed` checked it).
             return unsafe { run_avx512(k) };
         }

@@ -33,6 +33,12 @@ pub trait Potential: Sync {
     /// shape and one copy, which keeps the build small).
     const SPECIALIZE: bool = true;
 
+    /// Worth an AVX-512 copy of the kernels besides the AVX2 one (false where it measured no
+    /// faster than the AVX2 copy: compiled programs and chains, whose force is a call to machine
+    /// code, and wave equations, whose step is two FFTs that choose their own instructions). Each
+    /// copy is the whole inlined tight loop to optimize, per shape, lane type and variant.
+    const AVX512: bool = Self::SPECIALIZE;
+
     /// Worth the compile-time shapes of small problems (false for chains, which are for long
     /// ones: fewer copies of the kernels to build).
     const SMALL_SHAPES: bool = Self::SPECIALIZE;

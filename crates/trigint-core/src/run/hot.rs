@@ -146,6 +146,7 @@ impl<
 {
     type Output = CoreResult<Option<u64>>;
     const WIDE: bool = P::SPECIALIZE;
+    const AVX512: bool = P::AVX512;
     // One-lane compile-time shapes too: the AVX2 copy's three-operand forms beat the baseline's
     // (FPU m = 3, no energies, TRIGINT_ISA=avx2: 7.98 -> 6.93 ns; C without AVX-512 6.9).
 
