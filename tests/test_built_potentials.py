@@ -5,8 +5,10 @@ The built potential pickles as its description."""
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
+import pytest
 
 import trigint as ti
 from trigint import _core, _native
@@ -52,3 +54,23 @@ def test_a_built_potential_pickles_as_its_description():
     v2, f2 = again.evaluate(x)
     assert np.array_equal(v1, v2) and np.array_equal(f1, f2)
     assert again.spec["kind"] == "program"
+
+
+def test_every_native_kind_is_read_from_its_description_by_the_core():
+    """The binding converts a description as plain data; the core reads each kind's fields and
+    says which one is wrong."""
+    fpu = _core.Potential({"kind": "fpu", "m": np.int64(2)})
+    x = np.array([[0.3, -0.1, 0.2, 0.05]])
+    u, g = fpu.evaluate(x)
+    assert u[0] == ti.FPUPotential(2).value(x[0]) and np.array_equal(g[0], -ti.FPUPotential(2).gradient(x[0]))
+    bad = [({"kind": "spline"}, "unknown potential kind \"spline\"; expected one of fpu, program, chain, wave"),
+           ({"kind": "fpu"}, "`m`: missing from the description"),
+           ({"kind": "fpu", "m": 2.5}, "`m`: expected an integer, got a float"),
+           ({"kind": "fpu", "m": -1}, "`m`: expected a non-negative integer, got -1"),
+           ({"kind": "program", "n": 1, "output": 0, "ops": [("cbrt", 0)]},
+            "program operation 0 (\"cbrt\"): unknown operation")]
+    for spec, message in bad:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            _core.Potential(spec)
+    with pytest.raises(TypeError, match="unsupported value of type object"):
+        _core.Potential({"kind": "fpu", "m": 2, "map": object()})

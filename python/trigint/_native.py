@@ -194,7 +194,7 @@ def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
             return change_basis(np.asarray(gradient(change_basis(x, back)), dtype=float), basis)
 
         return {**spec, "value": value_modal, "gradient": gradient_modal}
-    raise ValueError(f"unknown potential kind {kind!r}")
+    raise ValueError(_unmapped(kind, "in modal coordinates (a stiffness matrix)"))
 
 
 def _compose(m: dict | None, rows: int, basis: np.ndarray) -> dict:
@@ -242,7 +242,14 @@ def _permute_spec(spec: dict, lay: CoreLayout, potential) -> dict:
             return np.asarray(gradient(x[..., inverse]), dtype=float)[..., perm]
 
         return {**spec, "value": value_core, "gradient": gradient_core}
-    raise ValueError(f"unknown potential kind {kind!r}")
+    raise ValueError(_unmapped(kind, "with its coordinates reordered (slow ones first, then block by block)"))
+
+
+def _unmapped(kind: str, where: str) -> str:
+    """Why a native kind without a coordinate map cannot run in the core's coordinates."""
+    return (f"a potential of kind {kind!r} reads no coordinate map, so it runs only on a problem whose core "
+            f"coordinates are the user's; this problem runs {where}. Kinds that take a map: fpu, program, "
+            "chain, python")
 
 
 def _permute_map(m: dict, inv: np.ndarray) -> dict:

@@ -13,6 +13,7 @@
 pub mod basis;
 pub mod channels;
 pub mod coefficients;
+pub mod description;
 pub mod energy;
 pub mod error;
 #[doc(hidden)]
@@ -33,7 +34,9 @@ pub use coefficients::MethodCoefficients;
 pub use energy::Samples;
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
-pub use potential::{Chain, ChainTerm, Fpu, LinearMap, Op, Potential, Program, ProgramSpec, Wave};
+pub use potential::{
+    Chain, ChainTerm, Fpu, LinearMap, Native, Op, Potential, Program, ProgramSpec, Wave,
+};
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
 pub use run::Control;
 pub use run::{integrate, integrate_batch};

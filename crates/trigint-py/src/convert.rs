@@ -5,9 +5,10 @@ use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::conversion::FromPyObjectOwned;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyList, PyString, PyTuple};
+use trigint_core::description::Value;
 use trigint_core::energy::PairForms;
-use trigint_core::{Form, Layout, LinearMap, MethodCoefficients, Op, ProgramSpec, Record};
+use trigint_core::{Form, Layout, MethodCoefficients, Record};
 
 /// `d[key]`, or a TypeError naming the key.
 pub fn item<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str) -> PyResult<T> {
@@ -104,68 +105,59 @@ pub fn record(save_every: Option<u64>, track: bool) -> Record {
     Record { save_every, track }
 }
 
-/// A sparse matrix in compressed rows: `{"rows", "cols", "ptr", "idx", "vals"}`.
-pub fn linear_map(d: &Bound<'_, PyDict>) -> PyResult<LinearMap> {
-    let ptr: Vec<usize> = item(d, "ptr")?;
-    let idx: Vec<usize> = item(d, "idx")?;
-    let vals = vec1(item(d, "vals")?);
-    LinearMap::from_csr(item(d, "rows")?, item(d, "cols")?, &ptr, &idx, &vals)
-        .map_err(|e| PyValueError::new_err(e.to_string()))
-}
-
-/// A tape: `{"n": int, "ops": [(name, a, b?) …], "output": int}`, with the operations named
-/// as in [`Op`] ("input", "const", "add", "sub", "mul", "div", "neg", "powi", "powf", "sqrt",
-/// "exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "abs", "sign").
-pub fn program(d: &Bound<'_, PyDict>) -> PyResult<ProgramSpec> {
-    let raw: Vec<Bound<'_, PyTuple>> = item(d, "ops")?;
-    let mut ops = Vec::with_capacity(raw.len());
-    for (k, t) in raw.iter().enumerate() {
-        let name: String = t.get_item(0)?.extract()?;
-        let bad =
-            |what: &str| PyValueError::new_err(format!("program operation {k} ({name:?}): {what}"));
-        let arg = |j: usize| -> PyResult<usize> {
-            t.get_item(j)
-                .and_then(|x| x.extract())
-                .map_err(|_| bad("expected an operand index"))
-        };
-        let num = |j: usize| -> PyResult<f64> {
-            t.get_item(j)
-                .and_then(|x| x.extract())
-                .map_err(|_| bad("expected a number"))
-        };
-        let op = match name.as_str() {
-            "input" => Op::Input(arg(1)?),
-            "const" => Op::Const(num(1)?),
-            "add" => Op::Add(arg(1)?, arg(2)?),
-            "sub" => Op::Sub(arg(1)?, arg(2)?),
-            "mul" => Op::Mul(arg(1)?, arg(2)?),
-            "div" => Op::Div(arg(1)?, arg(2)?),
-            "neg" => Op::Neg(arg(1)?),
-            "powi" => Op::Powi(
-                arg(1)?,
-                t.get_item(2)
-                    .and_then(|x| x.extract())
-                    .map_err(|_| bad("expected an integer exponent"))?,
-            ),
-            "powf" => Op::Powf(arg(1)?, num(2)?),
-            "sqrt" => Op::Sqrt(arg(1)?),
-            "exp" => Op::Exp(arg(1)?),
-            "log" => Op::Log(arg(1)?),
-            "sin" => Op::Sin(arg(1)?),
-            "cos" => Op::Cos(arg(1)?),
-            "tan" => Op::Tan(arg(1)?),
-            "sinh" => Op::Sinh(arg(1)?),
-            "cosh" => Op::Cosh(arg(1)?),
-            "tanh" => Op::Tanh(arg(1)?),
-            "abs" => Op::Abs(arg(1)?),
-            "sign" => Op::Sign(arg(1)?),
-            _ => return Err(bad("unknown operation")),
-        };
-        ops.push(op);
+/// A description as plain data ([`Value`]), converted the same way for every kind: dicts with
+/// string keys, lists and tuples, numeric 1-d arrays, numbers (NumPy's scalars too), strings,
+/// bools and None.
+pub fn description(obj: &Bound<'_, PyAny>) -> PyResult<Value> {
+    if obj.is_none() {
+        return Ok(Value::None);
     }
-    Ok(ProgramSpec {
-        n_inputs: item(d, "n")?,
-        ops,
-        output: item(d, "output")?,
-    })
+    if let Ok(b) = obj.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if let Ok(s) = obj.cast::<PyString>() {
+        return Ok(Value::Str(s.to_str()?.to_owned()));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        return d
+            .iter()
+            .map(|(k, v)| {
+                let key: String = k.extract().map_err(|_| {
+                    PyTypeError::new_err(format!("description: key {k} is not a string"))
+                })?;
+                Ok((key, description(&v)?))
+            })
+            .collect::<PyResult<_>>()
+            .map(Value::Dict);
+    }
+    if let Ok(a) = obj.extract::<PyReadonlyArray1<f64>>() {
+        return Ok(Value::Floats(a.as_array().to_vec()));
+    }
+    if let Ok(a) = obj.extract::<PyReadonlyArray1<i64>>() {
+        return Ok(Value::Ints(a.as_array().to_vec()));
+    }
+    if let Ok(l) = obj.cast::<PyList>() {
+        return l
+            .iter()
+            .map(|x| description(&x))
+            .collect::<PyResult<_>>()
+            .map(Value::List);
+    }
+    if let Ok(t) = obj.cast::<PyTuple>() {
+        return t
+            .iter()
+            .map(|x| description(&x))
+            .collect::<PyResult<_>>()
+            .map(Value::List);
+    }
+    if let Ok(i) = obj.extract::<i64>() {
+        return Ok(Value::Int(i));
+    }
+    if let Ok(x) = obj.extract::<f64>() {
+        return Ok(Value::Float(x));
+    }
+    Err(PyTypeError::new_err(format!(
+        "description: unsupported value of type {}",
+        obj.get_type().name()?
+    )))
 }

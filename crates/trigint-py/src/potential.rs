@@ -1,5 +1,6 @@
-//! Potentials as the binding receives them, behind one dispatch: the kinds of the core and
-//! Python callables. A new core kind is one variant here and one arm in [`with_potential!`].
+//! Potentials as the binding receives them, behind one dispatch: the core's native kinds
+//! (built from their descriptions by the core, see `trigint_core::Native`) and Python callables.
+//! A new native kind needs nothing here.
 
 use std::sync::Mutex;
 
@@ -9,15 +10,12 @@ use numpy::{
 use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use trigint_core::{Chain, ChainTerm, CoreError, CoreResult, Fpu, Potential, Program, Real, Wave};
+use trigint_core::{CoreError, CoreResult, Native, Potential, Real};
 
-use crate::convert::{item, linear_map, program};
+use crate::convert::{description, item};
 
 pub enum NativePotential {
-    Fpu(Fpu),
-    Program(Program),
-    Chain(Chain),
-    Wave(Box<Wave>),
+    Core(Native),
     Python(PythonCallbacks),
 }
 
@@ -25,12 +23,8 @@ pub enum NativePotential {
 macro_rules! with_potential {
     ($pot:expr, |$p:ident| $body:expr) => {
         match $pot {
-            $crate::potential::NativePotential::Fpu($p) => $body,
-            $crate::potential::NativePotential::Program($p) => $body,
-            $crate::potential::NativePotential::Chain($p) => $body,
-            $crate::potential::NativePotential::Wave($p) => {
-                let $p: &trigint_core::Wave = $p;
-                $body
+            $crate::potential::NativePotential::Core(native) => {
+                trigint_core::with_native!(native, |$p| $body)
             }
             $crate::potential::NativePotential::Python($p) => $body,
         }
@@ -38,74 +32,24 @@ macro_rules! with_potential {
 }
 pub(crate) use with_potential;
 
-fn value_error(e: CoreError) -> PyErr {
-    PyValueError::new_err(e.to_string())
-}
-
 impl NativePotential {
-    /// From `{"kind": "fpu", "m", "map"?}`, `{"kind": "program", …tape, "map"?}`,
-    /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}]}`,
-    /// `{"kind": "wave", "shape", "v": tape, "order"}` or
-    /// `{"kind": "python", "n", "value", "gradient", "vectorized"}`.
+    /// From a description: `{"kind": "python", "n", "value", "gradient", "vectorized"}` (Python
+    /// callables), or any native kind's (`{"kind": "fpu", …}`, read by the core).
     pub fn from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
         let kind: String = item(spec, "kind")?;
-        let map = |d: &Bound<'_, PyDict>| -> PyResult<Option<trigint_core::LinearMap>> {
-            match d.get_item("map")? {
-                Some(m) if !m.is_none() => Ok(Some(linear_map(m.cast::<PyDict>()?)?)),
-                _ => Ok(None),
-            }
-        };
-        match kind.as_str() {
-            "fpu" => {
-                let m = item(spec, "m")?;
-                Ok(Self::Fpu(
-                    match map(spec)? {
-                        Some(map) => Fpu::with_map(m, map),
-                        None => Fpu::new(m),
-                    }
-                    .map_err(value_error)?,
-                ))
-            }
-            "program" => Ok(Self::Program(
-                Program::new(&program(spec)?, map(spec)?.as_ref()).map_err(value_error)?,
-            )),
-            "chain" => {
-                let terms: Vec<Bound<'_, PyDict>> = item(spec, "terms")?;
-                let terms = terms
-                    .iter()
-                    .map(|t| {
-                        let v: Bound<'_, PyDict> = item(t, "v")?;
-                        let m = map(t)?
-                            .ok_or_else(|| PyTypeError::new_err("chain term: missing map"))?;
-                        ChainTerm::new(m, &program(&v)?).map_err(value_error)
-                    })
-                    .collect::<PyResult<Vec<_>>>()?;
-                Ok(Self::Chain(
-                    Chain::new(item(spec, "n")?, terms).map_err(value_error)?,
-                ))
-            }
-            "wave" => {
-                let v: Bound<'_, PyDict> = item(spec, "v")?;
-                Ok(Self::Wave(Box::new(
-                    Wave::new(
-                        &item::<Vec<usize>>(spec, "shape")?,
-                        &program(&v)?,
-                        item(spec, "order")?,
-                    )
-                    .map_err(value_error)?,
-                )))
-            }
-            "python" => Ok(Self::Python(PythonCallbacks {
+        if kind == "python" {
+            return Ok(Self::Python(PythonCallbacks {
                 dim: item(spec, "n")?,
                 value: item::<Bound<'_, PyAny>>(spec, "value")?.unbind(),
                 gradient: item::<Bound<'_, PyAny>>(spec, "gradient")?.unbind(),
                 vectorized: item(spec, "vectorized")?,
                 error: Mutex::new(None),
-            })),
-            other => Err(PyValueError::new_err(format!(
-                "unknown potential kind {other:?}; expected fpu, program, chain, wave or python"
-            ))),
+            }));
         }
+        let d = description(spec.as_any())?;
+        Native::from_description(&d)
+            .map(Self::Core)
+            .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
     /// The Python exception raised inside a callback, if any (not a Ctrl-C, which interrupts).
@@ -119,8 +63,8 @@ impl NativePotential {
     /// Instructions of the force-only code of a compiled program (None for other kinds).
     pub fn instructions(&self) -> Option<usize> {
         match self {
-            Self::Program(p) => Some(p.force_instructions()),
-            _ => None,
+            Self::Core(p) => p.instructions(),
+            Self::Python(_) => None,
         }
     }
 }

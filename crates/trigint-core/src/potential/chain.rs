@@ -8,8 +8,9 @@
 //! partial sums and applies Lᵀ(−V'(y)) to the force.
 
 use super::compiled::{Op, Program, ProgramSpec};
-use super::linear::LinearMap;
+use super::linear::{optional_map, LinearMap};
 use super::Potential;
+use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 
@@ -36,6 +37,23 @@ impl ChainTerm {
             v: Program::new(v, None)?,
             map,
         })
+    }
+}
+
+impl FromDescription for Chain {
+    /// `{"kind": "chain", "n", "terms": [{"v": tape, "map"}, …]}`.
+    fn from_description(d: &Value) -> CoreResult<Self> {
+        let terms = d
+            .field("terms")?
+            .to_list("terms")?
+            .iter()
+            .map(|t| {
+                let map = optional_map(t)?
+                    .ok_or_else(|| CoreError::invalid("map", "a chain term needs its map"))?;
+                ChainTerm::new(map, &ProgramSpec::from_description(t.field("v")?)?)
+            })
+            .collect::<CoreResult<Vec<_>>>()?;
+        Chain::new(d.field("n")?.to_usize("n")?, terms)
     }
 }
 

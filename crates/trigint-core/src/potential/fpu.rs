@@ -1,6 +1,8 @@
 //! The Fermi–Pasta–Ulam chain with alternating stiff and soft springs, written out in Rust.
 
+use super::linear::optional_map;
 use super::{LinearMap, Potential};
+use crate::description::{FromDescription, Value};
 use crate::energy::at;
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
@@ -20,6 +22,17 @@ use crate::sum::{pairwise, Sum8};
 pub struct Fpu {
     pub m: usize,
     pub map: Option<LinearMap>,
+}
+
+impl FromDescription for Fpu {
+    /// `{"kind": "fpu", "m", "map"?}`.
+    fn from_description(d: &Value) -> CoreResult<Self> {
+        let m = d.field("m")?.to_usize("m")?;
+        match optional_map(d)? {
+            Some(map) => Fpu::with_map(m, map),
+            None => Fpu::new(m),
+        }
+    }
 }
 
 /// Chains longer than this go through vectorizable passes over the springs.

@@ -15,6 +15,7 @@
 //! own, in their order, so the bits are the same; the passes' loads and stores of the partial
 //! sums are gone (FPU m = 1000: y = Lx took 5 passes over y, now one).
 
+use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 
@@ -164,6 +165,26 @@ fn run_band<L: Real>(band: &Band, input: &[L], out: &mut [L], from_zero: bool) {
             }
         }
     }
+}
+
+impl FromDescription for LinearMap {
+    /// `{"rows", "cols", "ptr", "idx", "vals"}`: compressed sparse rows (see [`from_csr`](Self::from_csr)).
+    fn from_description(d: &Value) -> CoreResult<Self> {
+        Self::from_csr(
+            d.field("rows")?.to_usize("rows")?,
+            d.field("cols")?.to_usize("cols")?,
+            &d.field("ptr")?.to_usizes("ptr")?,
+            &d.field("idx")?.to_usizes("idx")?,
+            &d.field("vals")?.to_f64s("vals")?,
+        )
+    }
+}
+
+/// The optional field `"map"` of a description.
+pub(crate) fn optional_map(d: &Value) -> CoreResult<Option<LinearMap>> {
+    d.optional("map")
+        .map(LinearMap::from_description)
+        .transpose()
 }
 
 impl LinearMap {

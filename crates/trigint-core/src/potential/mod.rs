@@ -12,12 +12,14 @@ mod chain;
 mod compiled;
 mod fpu;
 mod linear;
+mod native;
 mod wave;
 
 pub use chain::{Chain, ChainTerm};
 pub use compiled::{Op, Program, ProgramSpec};
 pub use fpu::Fpu;
 pub use linear::{LinearMap, Segment, SegmentCoef};
+pub use native::Native;
 pub use wave::Wave;
 
 use crate::error::{CoreError, CoreResult};

@@ -8,6 +8,7 @@
 
 use super::compiled::{Program, ProgramSpec};
 use super::Potential;
+use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 use crate::spectral::{Spectral, SpectralWorkspace};
@@ -39,6 +40,17 @@ struct GridWorkspace {
     values: Vec<f64>,
     registers: Vec<Vec<f64>>,
     fft: SpectralWorkspace,
+}
+
+impl FromDescription for Wave {
+    /// `{"kind": "wave", "shape", "v": tape, "order"}`.
+    fn from_description(d: &Value) -> CoreResult<Self> {
+        Wave::new(
+            &d.field("shape")?.to_usizes("shape")?,
+            &ProgramSpec::from_description(d.field("v")?)?,
+            d.field("order")?.to_usizes("order")?,
+        )
+    }
 }
 
 impl Wave {

@@ -1,5 +1,8 @@
 //! A tape's operations as the Python layer hands them over, and the functions they name.
 
+use crate::description::Value;
+use crate::error::{CoreError, CoreResult};
+
 /// One operation of a tape; operands are the indices of earlier operations.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Op {
@@ -34,6 +37,70 @@ pub struct ProgramSpec {
     pub n_inputs: usize,
     pub ops: Vec<Op>,
     pub output: usize,
+}
+
+impl ProgramSpec {
+    /// A tape: `{"n": int, "ops": [(name, a, b?) …], "output": int}`, the operations named as
+    /// in [`Op`] in lower case ("input", "const", "add", "sub", "mul", "div", "neg", "powi",
+    /// "powf", "sqrt", "exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "abs", "sign").
+    pub fn from_description(d: &Value) -> CoreResult<Self> {
+        let raw = d.field("ops")?.to_list("ops")?;
+        let ops = raw
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let t = t.to_list("ops")?;
+                let name = t
+                    .first()
+                    .map(|x| x.to_str("ops"))
+                    .transpose()?
+                    .unwrap_or("");
+                let bad = |what: &str| {
+                    CoreError::invalid("ops", format!("program operation {k} ({name:?}): {what}"))
+                };
+                let operand = |j: usize| t.get(j).and_then(|x| x.to_usize("ops").ok());
+                let arg = |j: usize| operand(j).ok_or_else(|| bad("expected an operand index"));
+                let num = |j: usize| {
+                    t.get(j)
+                        .and_then(|x| x.to_f64("ops").ok())
+                        .ok_or_else(|| bad("expected a number"))
+                };
+                Ok(match name {
+                    "input" => Op::Input(arg(1)?),
+                    "const" => Op::Const(num(1)?),
+                    "add" => Op::Add(arg(1)?, arg(2)?),
+                    "sub" => Op::Sub(arg(1)?, arg(2)?),
+                    "mul" => Op::Mul(arg(1)?, arg(2)?),
+                    "div" => Op::Div(arg(1)?, arg(2)?),
+                    "neg" => Op::Neg(arg(1)?),
+                    "powi" => Op::Powi(
+                        arg(1)?,
+                        t.get(2)
+                            .and_then(|x| x.to_i32("ops").ok())
+                            .ok_or_else(|| bad("expected an integer exponent"))?,
+                    ),
+                    "powf" => Op::Powf(arg(1)?, num(2)?),
+                    "sqrt" => Op::Sqrt(arg(1)?),
+                    "exp" => Op::Exp(arg(1)?),
+                    "log" => Op::Log(arg(1)?),
+                    "sin" => Op::Sin(arg(1)?),
+                    "cos" => Op::Cos(arg(1)?),
+                    "tan" => Op::Tan(arg(1)?),
+                    "sinh" => Op::Sinh(arg(1)?),
+                    "cosh" => Op::Cosh(arg(1)?),
+                    "tanh" => Op::Tanh(arg(1)?),
+                    "abs" => Op::Abs(arg(1)?),
+                    "sign" => Op::Sign(arg(1)?),
+                    _ => return Err(bad("unknown operation")),
+                })
+            })
+            .collect::<CoreResult<Vec<_>>>()?;
+        Ok(ProgramSpec {
+            n_inputs: d.field("n")?.to_usize("n")?,
+            ops,
+            output: d.field("output")?.to_usize("output")?,
+        })
+    }
 }
 
 /// Functions of one argument.

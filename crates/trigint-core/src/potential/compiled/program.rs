@@ -7,8 +7,9 @@ use super::code::Code;
 use super::graph::Graph;
 use super::jit::{self, Compiled, Walk};
 use super::ops::{Binary, Op, ProgramSpec, Unary};
+use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
-use crate::potential::linear::LinearMap;
+use crate::potential::linear::{optional_map, LinearMap};
 use crate::potential::Potential;
 use crate::real::Real;
 use crate::sum::Sum8;
@@ -42,6 +43,17 @@ pub struct ProgramWorkspace<L> {
     full: Vec<L>,
     force_only: Vec<L>,
     value_only: Vec<L>,
+}
+
+impl FromDescription for Program {
+    /// `{"kind": "program", "n", "ops", "output", "map"?}`: a tape (see
+    /// [`ProgramSpec::from_description`]) and the linear map its inputs are read through.
+    fn from_description(d: &Value) -> CoreResult<Self> {
+        Program::new(
+            &ProgramSpec::from_description(d)?,
+            optional_map(d)?.as_ref(),
+        )
+    }
 }
 
 impl Program {
