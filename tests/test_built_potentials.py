@@ -72,5 +72,15 @@ def test_every_native_kind_is_read_from_its_description_by_the_core():
     for spec, message in bad:
         with pytest.raises(ValueError, match=re.escape(message)):
             _core.Potential(spec)
-    with pytest.raises(TypeError, match="unsupported value of type object"):
-        _core.Potential({"kind": "fpu", "m": 2, "map": object()})
+    with pytest.raises(TypeError, match=re.escape('description["map"]["vals"]: a value of type object')):
+        _core.Potential({"kind": "fpu", "m": 2, "map": {"vals": object()}})
+    with pytest.raises(TypeError, match=re.escape('description["shape"]: a 2-d array')):
+        _core.Potential({"kind": "wave", "shape": np.zeros((2, 2))})
+    # the arrays of a SciPy CSR matrix (int32 indices) are taken as they are
+    from scipy.sparse import csr_matrix
+    perm = csr_matrix(np.eye(4)[[2, 0, 3, 1]])
+    assert perm.indices.dtype == np.int32
+    mapped = _core.Potential({"kind": "fpu", "m": 2, "map": {"rows": 4, "cols": 4, "ptr": perm.indptr,
+                                                             "idx": perm.indices, "vals": perm.data}})
+    u, _ = mapped.evaluate(x[:, [1, 3, 0, 2]])
+    assert u[0] == fpu.evaluate(x)[0][0]

@@ -71,6 +71,14 @@ impl Value {
         }
     }
 
+    /// This value, which must be a dict (`name`: the field that holds it, for the error).
+    pub fn to_dict(&self, name: &'static str) -> CoreResult<&Value> {
+        match self {
+            Value::Dict(_) => Ok(self),
+            other => Err(other.wrong(name, "a dict")),
+        }
+    }
+
     /// The field `key`, or None where it is missing or None.
     pub fn optional(&self, key: &'static str) -> Option<&Value> {
         match self.field(key) {
@@ -133,6 +141,7 @@ impl Value {
     /// Indices: an array of integers, or a list of them.
     pub fn to_usizes(&self, name: &'static str) -> CoreResult<Vec<usize>> {
         match self {
+            Value::Floats(v) if v.is_empty() => Ok(Vec::new()),
             Value::Ints(v) => v.iter().map(|&i| Value::Int(i).to_usize(name)).collect(),
             Value::List(items) => items.iter().map(|x| x.to_usize(name)).collect(),
             other => Err(other.wrong(name, "indices")),
@@ -140,7 +149,8 @@ impl Value {
     }
 }
 
-/// A native potential kind built from its description (see `potential::Native`).
+/// What is read from a description: a native potential kind (see `potential::Native`) or a
+/// part of one (a tape, a linear map).
 pub trait FromDescription: Sized {
     fn from_description(d: &Value) -> CoreResult<Self>;
 }

@@ -1,7 +1,9 @@
 //! Typed inputs: what the Python layer (`trigint._native`) hands over, checked and converted
 //! into core types. Errors name the field and say what was expected.
 
-use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArrayDescrMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::conversion::FromPyObjectOwned;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -106,9 +108,20 @@ pub fn record(save_every: Option<u64>, track: bool) -> Record {
 }
 
 /// A description as plain data ([`Value`]), converted the same way for every kind: dicts with
-/// string keys, lists and tuples, numeric 1-d arrays, numbers (NumPy's scalars too), strings,
-/// bools and None.
+/// string keys, lists and tuples, 1-d NumPy arrays (integer ones as integers, float ones as
+/// floats), numbers (NumPy's scalars too), strings, bools and None.
 pub fn description(obj: &Bound<'_, PyAny>) -> PyResult<Value> {
+    value_at(obj, "description")
+}
+
+/// [`description`] of the value at `path` (named in errors, e.g. `description["terms"][3]`).
+fn value_at(obj: &Bound<'_, PyAny>, path: &str) -> PyResult<Value> {
+    let unsupported = |what: String| {
+        PyTypeError::new_err(format!(
+            "{path}: {what}; a description holds dicts, lists, tuples, 1-d numeric arrays, \
+             numbers, strings, bools and None"
+        ))
+    };
     if obj.is_none() {
         return Ok(Value::None);
     }
@@ -122,33 +135,46 @@ pub fn description(obj: &Bound<'_, PyAny>) -> PyResult<Value> {
         return d
             .iter()
             .map(|(k, v)| {
-                let key: String = k.extract().map_err(|_| {
-                    PyTypeError::new_err(format!("description: key {k} is not a string"))
-                })?;
-                Ok((key, description(&v)?))
+                let key: String = k
+                    .extract()
+                    .map_err(|_| unsupported(format!("the key {k} is not a string")))?;
+                let inner = value_at(&v, &format!("{path}[{key:?}]"))?;
+                Ok((key, inner))
             })
             .collect::<PyResult<_>>()
             .map(Value::Dict);
     }
-    if let Ok(a) = obj.extract::<PyReadonlyArray1<f64>>() {
-        return Ok(Value::Floats(a.as_array().to_vec()));
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        if a.ndim() != 1 {
+            return Err(unsupported(format!("a {}-d array", a.ndim())));
+        }
+        return match a.dtype().kind() {
+            b'f' => {
+                let a = obj.call_method1("astype", ("float64",))?;
+                Ok(Value::Floats(
+                    a.extract::<PyReadonlyArray1<f64>>()?.as_array().to_vec(),
+                ))
+            }
+            b'i' | b'u' => {
+                let a = obj.call_method1("astype", ("int64",))?;
+                Ok(Value::Ints(
+                    a.extract::<PyReadonlyArray1<i64>>()?.as_array().to_vec(),
+                ))
+            }
+            _ => Err(unsupported(format!("an array of dtype {}", a.dtype()))),
+        };
     }
-    if let Ok(a) = obj.extract::<PyReadonlyArray1<i64>>() {
-        return Ok(Value::Ints(a.as_array().to_vec()));
-    }
-    if let Ok(l) = obj.cast::<PyList>() {
-        return l
-            .iter()
-            .map(|x| description(&x))
+    let items = |it: &mut dyn Iterator<Item = Bound<'_, PyAny>>| {
+        it.enumerate()
+            .map(|(i, x)| value_at(&x, &format!("{path}[{i}]")))
             .collect::<PyResult<_>>()
-            .map(Value::List);
+            .map(Value::List)
+    };
+    if let Ok(l) = obj.cast::<PyList>() {
+        return items(&mut l.iter());
     }
     if let Ok(t) = obj.cast::<PyTuple>() {
-        return t
-            .iter()
-            .map(|x| description(&x))
-            .collect::<PyResult<_>>()
-            .map(Value::List);
+        return items(&mut t.iter());
     }
     if let Ok(i) = obj.extract::<i64>() {
         return Ok(Value::Int(i));
@@ -156,8 +182,8 @@ pub fn description(obj: &Bound<'_, PyAny>) -> PyResult<Value> {
     if let Ok(x) = obj.extract::<f64>() {
         return Ok(Value::Float(x));
     }
-    Err(PyTypeError::new_err(format!(
-        "description: unsupported value of type {}",
+    Err(unsupported(format!(
+        "a value of type {}",
         obj.get_type().name()?
     )))
 }

@@ -46,6 +46,12 @@ impl NativePotential {
                 error: Mutex::new(None),
             }));
         }
+        if !Native::KINDS.contains(&kind.as_str()) {
+            return Err(PyValueError::new_err(format!(
+                "unknown potential kind {kind:?}; expected one of {}, python",
+                Native::KINDS.join(", ")
+            )));
+        }
         let d = description(spec.as_any())?;
         Native::from_description(&d)
             .map(Self::Core)

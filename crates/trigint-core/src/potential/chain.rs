@@ -47,10 +47,17 @@ impl FromDescription for Chain {
             .field("terms")?
             .to_list("terms")?
             .iter()
-            .map(|t| {
-                let map = optional_map(t)?
-                    .ok_or_else(|| CoreError::invalid("map", "a chain term needs its map"))?;
-                ChainTerm::new(map, &ProgramSpec::from_description(t.field("v")?)?)
+            .enumerate()
+            .map(|(i, t)| {
+                let term = |e: CoreError| CoreError::invalid("terms", format!("term {i}: {e}"));
+                let t = t.to_dict("terms").map_err(term)?;
+                let map = optional_map(t)
+                    .and_then(|m| {
+                        m.ok_or_else(|| CoreError::invalid("map", "a chain term needs its map"))
+                    })
+                    .map_err(term)?;
+                let v = t.field("v").and_then(|v| v.to_dict("v")).map_err(term)?;
+                ChainTerm::new(map, &ProgramSpec::from_description(v).map_err(term)?)
             })
             .collect::<CoreResult<Vec<_>>>()?;
         Chain::new(d.field("n")?.to_usize("n")?, terms)

@@ -183,7 +183,7 @@ impl FromDescription for LinearMap {
 /// The optional field `"map"` of a description.
 pub(crate) fn optional_map(d: &Value) -> CoreResult<Option<LinearMap>> {
     d.optional("map")
-        .map(LinearMap::from_description)
+        .map(|m| LinearMap::from_description(m.to_dict("map")?))
         .transpose()
 }
 

@@ -1,45 +1,55 @@
 //! The native kinds by name: a potential built from its description (`describe()` in Python,
 //! see [`description`](crate::description)), and the one dispatch from it to the generic entry
 //! points. A new kind is its own file (implementing [`Potential`](super::Potential) and
-//! [`FromDescription`]) plus its `mod` line in `potential/mod.rs` and its three lines here: the
-//! binding and the entry points need nothing new.
+//! [`FromDescription`]) plus its `mod` line in `potential/mod.rs` and two lines here (its entry
+//! in `native_kinds!` and its arm in `with_native!`): the binding and the entry points need
+//! nothing new.
 
 use super::{Chain, Fpu, Program, Wave};
 use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 
-/// A potential of one of the native kinds.
-#[derive(Debug)]
-pub enum Native {
-    Fpu(Fpu),
-    Program(Program),
-    Chain(Chain),
-    Wave(Box<Wave>),
+/// The kinds, written once: each `"name" => Variant(Type)` gives the variant of [`Native`], its
+/// entry in [`Native::KINDS`] and its case in [`Native::from_description`].
+macro_rules! native_kinds {
+    ($($name:literal => $variant:ident($ty:ty)),* $(,)?) => {
+        /// A potential of one of the native kinds.
+        #[derive(Debug)]
+        pub enum Native {
+            $($variant($ty)),*
+        }
+
+        impl Native {
+            /// The kinds' names, as a description's `"kind"` gives them.
+            pub const KINDS: &'static [&'static str] = &[$($name),*];
+
+            /// The potential of a description `{"kind": …, …}`.
+            pub fn from_description(d: &Value) -> CoreResult<Self> {
+                Ok(match d.field("kind")?.to_str("kind")? {
+                    $($name => Self::$variant(FromDescription::from_description(d)?),)*
+                    other => {
+                        return Err(CoreError::invalid(
+                            "kind",
+                            format!(
+                                "unknown potential kind {other:?}; expected one of {}",
+                                Self::KINDS.join(", ")
+                            ),
+                        ))
+                    }
+                })
+            }
+        }
+    };
+}
+
+native_kinds! {
+    "fpu" => Fpu(Fpu),
+    "program" => Program(Program),
+    "chain" => Chain(Chain),
+    "wave" => Wave(Box<Wave>),
 }
 
 impl Native {
-    /// The kinds' names, as a description's `"kind"` gives them.
-    pub const KINDS: &'static [&'static str] = &["fpu", "program", "chain", "wave"];
-
-    /// The potential of a description `{"kind": …, …}`.
-    pub fn from_description(d: &Value) -> CoreResult<Self> {
-        Ok(match d.field("kind")?.to_str("kind")? {
-            "fpu" => Self::Fpu(FromDescription::from_description(d)?),
-            "program" => Self::Program(FromDescription::from_description(d)?),
-            "chain" => Self::Chain(FromDescription::from_description(d)?),
-            "wave" => Self::Wave(FromDescription::from_description(d)?),
-            other => {
-                return Err(CoreError::invalid(
-                    "kind",
-                    format!(
-                        "unknown potential kind {other:?}; expected one of {}",
-                        Self::KINDS.join(", ")
-                    ),
-                ))
-            }
-        })
-    }
-
     /// Instructions of the force-only code of a compiled program (None for other kinds).
     pub fn instructions(&self) -> Option<usize> {
         match self {
@@ -135,6 +145,15 @@ mod tests {
     }
 
     #[test]
+    fn every_kind_is_dispatched_by_its_name() {
+        for kind in Native::KINDS {
+            let e = Native::from_description(&Value::dict([("kind", (*kind).into())]));
+            let e = e.unwrap_err().to_string();
+            assert!(e.contains("missing from the description"), "{kind}: {e}");
+        }
+    }
+
+    #[test]
     fn a_bad_description_says_what_is_wrong() {
         let err = |d: Value| Native::from_description(&d).unwrap_err().to_string();
         let e = err(Value::dict([("kind", "spline".into())]));
@@ -161,6 +180,15 @@ mod tests {
                 Value::List(vec![Value::dict([("v", Value::dict(tape(1)))])]),
             ),
         ]));
-        assert!(e.contains("a chain term needs its map"), "{e}");
+        assert!(
+            e.contains("term 0: invalid argument `map`: a chain term needs its map"),
+            "{e}"
+        );
+        let e = err(Value::dict([
+            ("kind", "fpu".into()),
+            ("m", Value::Int(2)),
+            ("map", Value::List(vec![])),
+        ]));
+        assert!(e.contains("`map`: expected a dict, got a list"), "{e}");
     }
 }

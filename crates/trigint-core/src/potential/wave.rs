@@ -47,7 +47,7 @@ impl FromDescription for Wave {
     fn from_description(d: &Value) -> CoreResult<Self> {
         Wave::new(
             &d.field("shape")?.to_usizes("shape")?,
-            &ProgramSpec::from_description(d.field("v")?)?,
+            &ProgramSpec::from_description(d.field("v")?.to_dict("v")?)?,
             d.field("order")?.to_usizes("order")?,
         )
     }

@@ -1,6 +1,6 @@
 //! A tape's operations as the Python layer hands them over, and the functions they name.
 
-use crate::description::Value;
+use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 
 /// One operation of a tape; operands are the indices of earlier operations.
@@ -39,22 +39,25 @@ pub struct ProgramSpec {
     pub output: usize,
 }
 
-impl ProgramSpec {
+impl FromDescription for ProgramSpec {
     /// A tape: `{"n": int, "ops": [(name, a, b?) …], "output": int}`, the operations named as
     /// in [`Op`] in lower case ("input", "const", "add", "sub", "mul", "div", "neg", "powi",
     /// "powf", "sqrt", "exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "abs", "sign").
-    pub fn from_description(d: &Value) -> CoreResult<Self> {
+    fn from_description(d: &Value) -> CoreResult<Self> {
         let raw = d.field("ops")?.to_list("ops")?;
         let ops = raw
             .iter()
             .enumerate()
             .map(|(k, t)| {
-                let t = t.to_list("ops")?;
+                let t = t.to_list("ops").map_err(|e| {
+                    CoreError::invalid("ops", format!("program operation {k}: {e}"))
+                })?;
                 let name = t
                     .first()
-                    .map(|x| x.to_str("ops"))
-                    .transpose()?
-                    .unwrap_or("");
+                    .and_then(|x| x.to_str("ops").ok())
+                    .ok_or_else(|| {
+                        CoreError::invalid("ops", format!("program operation {k}: no name first"))
+                    })?;
                 let bad = |what: &str| {
                     CoreError::invalid("ops", format!("program operation {k} ({name:?}): {what}"))
                 };
