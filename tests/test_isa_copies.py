@@ -14,6 +14,10 @@ import sys, numpy as np, scipy.sparse, sympy as sp, trigint as ti
 prob = ti.problems.fpu(3, 50.0); q0, p0 = ti.problems.fpu_initial(3, 50.0)
 h = 2 * np.pi / 3 / 50
 one = ti.integrate(prob, "B", q0, p0, h=h, n_steps=3000, save_every=1000)
+# a filter phi != 1 and the modified energy of a modified method, in the one-trajectory loop
+one_e = ti.integrate(prob, "E", q0, p0, h=h, n_steps=3000, save_every=1000)
+modified = ti.ModifiedTrigonometric(lambda x: 2 * np.arctan(x / 2), chi="mclachlan-stern")
+one_m = ti.integrate(prob, modified, q0, p0, h=h, n_steps=3000, save_every=1000)
 Q0, P0 = ti.perturb(q0, p0, np.linspace(0, 1e-6, 16))
 ens = ti.ensemble(prob, "C", Q0, P0, h=h * (1 + np.linspace(0, 1e-3, 16)), n_steps=2000, save_every=1000, threads=1)
 x = sp.symbols("x0:6")
@@ -25,6 +29,8 @@ sites = ti.ChainPotential(n).add("y**4/4", "y", sites=range(n))
 chain = ti.OscillatoryProblem(stiffness=a, potential=sites, path="krylov")
 kr = ti.integrate(chain, "D", np.sin(np.linspace(0, 3, n)), np.zeros(n), h=0.05, n_steps=30, save_every=30)
 np.savez(sys.argv[1], one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
+         one_e=one_e.q, one_e_dev=np.array(list(one_e.max_deviation.values())),
+         one_m_dev=np.array(list(one_m.max_deviation.values())),
          ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q)
 """
 

@@ -392,6 +392,26 @@ pub fn two_step_riding<L: Real, Sh: Shape>(
     sums
 }
 
+/// p_n = (d_{n+1} + d_n)/(2hχ) into `p`, from d_{n+1} (the state's d after an unobserved
+/// two-step step) and d_n: the p_n of an observing step, bit for bit.
+#[inline(always)]
+pub fn momenta_after_step<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    d_next: &[L],
+    d: &[L],
+    p: &mut [L],
+) {
+    let (ns, n) = (sh.ns(), sh.n());
+    let inv = k.inv_2h_chi.get();
+    for i in 0..ns {
+        p[i] = (d_next[i] + d[i]) * k.inv_2h;
+    }
+    for i in ns..n {
+        p[i] = (d_next[i] + d[i]) * at(inv, sh.coef(i));
+    }
+}
+
 /// After a two-step [`Observe::State`] step: q_{n+1} = q_n + d_{n+1}.
 #[inline(always)]
 pub fn finish_state_step<L: Real, Sh: Shape>(sh: &Sh, st: &mut State<L, Sh>) {

@@ -215,8 +215,18 @@ impl<
         // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
         let mut guard = L::zero();
         let zero = L::zero();
+        // One trajectory of a compile-time shape on 16 vector registers: the step is taken as
+        // the unobserved loop takes it, and (q_n, p_n) are observed after it from copies in
+        // memory, off the step's critical path (the same forms and order: the same bits).
+        let observe_after = extremes_in_memory && Sh::FIXED && TWO_STEP && TRACK;
         for j in n..e {
-            let sums = if TWO_STEP {
+            let sums = if observe_after {
+                let (q_n, d_n) = (st.q.clone(), st.d.clone());
+                recursion::evaluate(sh, pot, ws, k, st, true, phi, INLINE)?;
+                recursion::two_step(sh, k, w, st, Observe::No, PLAIN, block_sums);
+                recursion::momenta_after_step(sh, k, st.d.get(), d_n.get(), st.p.get_mut());
+                recursion::sums_of_state(sh, w, q_n.get(), st.p.get(), PLAIN, block_sums)
+            } else if TWO_STEP {
                 recursion::evaluate(sh, pot, ws, k, st, TRACK, phi, INLINE)?;
                 let riders = if TRACK && many {
                     Riders {
