@@ -215,12 +215,20 @@ impl<
         // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
         let mut guard = L::zero();
         let zero = L::zero();
-        // One trajectory of a compile-time shape on 16 vector registers: the step is taken as
-        // the unobserved loop takes it, and (q_n, p_n) are observed after it from copies in
-        // memory, off the step's critical path (the same forms and order: the same bits).
-        let observe_after = extremes_in_memory && Sh::FIXED && TWO_STEP && TRACK;
         for j in n..e {
-            let sums = if observe_after {
+            // One trajectory of a compile-time shape with an inline force, on 16 vector
+            // registers: the step is taken as the unobserved loop takes it, and (q_n, p_n) are
+            // observed after it from copies, off the step's critical path (the same forms and
+            // order: the same bits). The compile-time conditions come first, so that no other
+            // copy of the loop compiles this branch (behind a run-time flag alone it tripled the
+            // debug build of the Rust tests).
+            let sums = if INLINE
+                && Sh::FIXED
+                && TWO_STEP
+                && TRACK
+                && const { L::LANES == 1 }
+                && extremes_in_memory
+            {
                 let (q_n, d_n) = (st.q.clone(), st.d.clone());
                 recursion::evaluate(sh, pot, ws, k, st, true, phi, INLINE)?;
                 recursion::two_step(sh, k, w, st, Observe::No, PLAIN, block_sums);
