@@ -1,8 +1,11 @@
-//! Runs a kernel in the copy compiled for the widest vectors this CPU has, written once.
+//! Runs a kernel in one of the copies compiled per instruction set, written once.
 //!
 //! Only tight loops are copied (each copy a small function): the orchestration around them is
 //! compiled once. The copies differ only in instruction encoding: Rust never contracts a·b + c
-//! into a fused multiply-add, so every copy gives the same bits.
+//! into a fused multiply-add, so every copy gives the same bits. Which copy runs a stepping
+//! loop is the [planner](crate::plan)'s choice, measured per machine; other loops run the widest.
+
+use crate::plan::{self, Isa, Mode};
 
 /// A loop worth compiling per instruction set.
 pub trait Kernel {
@@ -24,6 +27,27 @@ pub trait Kernel {
         let _ = vector_bytes;
         self.run()
     }
+    /// A stepping loop that the planner chooses a copy for (see [`steps`](Self::steps)); a
+    /// constant, so that other loops compile no measuring code.
+    const PLANNED: bool = false;
+    /// A stepping loop's steps n..e, which the planner may run in pieces, each in its own copy
+    /// (a piece's end is one more finiteness test: the same bits). None: never planned.
+    fn steps(&self) -> Option<(u64, u64)> {
+        None
+    }
+    /// Narrows the loop to steps n..e (see [`steps`](Self::steps)).
+    fn set_steps(&mut self, n: u64, e: u64) {
+        let _ = (n, e);
+    }
+    /// The number of coordinates: loops are planned per size class (powers of two).
+    fn size(&self) -> usize {
+        0
+    }
+    /// Whether a piece's output ends the loop before its last step (a blow-up found, an error).
+    fn stops_early(out: &Self::Output) -> bool {
+        let _ = out;
+        false
+    }
 }
 
 /// The instruction sets the kernels may use here: the CPU's, capped by the environment
@@ -35,17 +59,17 @@ pub struct Allowed {
     pub avx2: bool,
 }
 
-/// See [`Allowed`].
+/// See [`Allowed`]. The AVX-512 copies use its VL and DQ parts too (every AVX-512 CPU but the
+/// Xeon Phi has them): with VL, scalar and 128/256-bit code on registers xmm16–31 needs no
+/// 512-bit moves.
 pub fn allowed() -> Allowed {
     static ALLOWED: std::sync::OnceLock<Allowed> = std::sync::OnceLock::new();
     *ALLOWED.get_or_init(|| {
-        #[cfg(target_arch = "x86_64")]
-        let (avx512, avx2) = (
-            std::is_x86_feature_detected!("avx512f"),
-            std::is_x86_feature_detected!("avx2"),
-        );
-        #[cfg(not(target_arch = "x86_64"))]
-        let (avx512, avx2) = (false, false);
+        let has = crate::cpu::features();
+        let avx512 = ["avx512f", "avx512vl", "avx512dq"]
+            .iter()
+            .all(|f| has.contains(f));
+        let avx2 = has.contains(&"avx2");
         let cap = std::env::var("TRIGINT_ISA").unwrap_or_default();
         match cap.trim().to_ascii_lowercase().as_str() {
             "avx2" => Allowed {
@@ -61,21 +85,91 @@ pub fn allowed() -> Allowed {
     })
 }
 
-/// `k.run()` in the best copy for this CPU (see [`allowed`]).
-#[inline(always)]
-pub fn run<K: Kernel>(k: &mut K) -> K::Output {
-    #[cfg(target_arch = "x86_64")]
-    if K::WIDE {
-        let isa = allowed();
+/// The copies of `K` this CPU may run, widest first.
+fn copies<K: Kernel>() -> ([Isa; 3], usize) {
+    let isa = allowed();
+    let mut out = [Isa::Baseline; 3];
+    let mut n = 0;
+    if K::WIDE && cfg!(target_arch = "x86_64") {
         if K::AVX512 && isa.avx512 {
-            // SAFETY: the CPU supports AVX-512F (`allowed` checked it).
-            return unsafe { run_avx512(k) };
+            out[n] = Isa::Avx512;
+            n += 1;
         }
         if K::AVX2 && isa.avx2 {
-            // SAFETY: the CPU supports AVX2 (`allowed` checked it).
+            out[n] = Isa::Avx2;
+            n += 1;
+        }
+    }
+    out[n] = Isa::Baseline;
+    (out, n + 1)
+}
+
+/// `k.run()` in the copy for this CPU: the planner's choice for a stepping loop, else the widest.
+#[inline(always)]
+pub fn run<K: Kernel>(k: &mut K) -> K::Output {
+    let (all, n) = copies::<K>();
+    let copies = &all[..n];
+    if K::PLANNED && copies.len() > 1 && plan::mode() == Mode::Measure {
+        if let Some((first, end)) = k.steps().filter(|(n, e)| e > n) {
+            // (A loop of no steps has nothing to time.)
+            let id = plan::Id::of::<K>(k.size());
+            if let Some(isa) = plan::chosen(id) {
+                return run_copy(k, isa);
+            }
+            return run_measuring(k, id, copies, first, end);
+        }
+    }
+    run_copy(k, copies[0])
+}
+
+/// Steps first..end in pieces, each timed in the copy the planner asks for, until it has chosen.
+#[inline(never)]
+fn run_measuring<K: Kernel>(
+    k: &mut K,
+    id: plan::Id,
+    copies: &[Isa],
+    first: u64,
+    end: u64,
+) -> K::Output {
+    let mut n = first;
+    loop {
+        match plan::next::<K>(id, copies) {
+            plan::Next::Use(isa) => {
+                k.set_steps(n, end);
+                return run_copy(k, isa);
+            }
+            plan::Next::Measure(isa, steps) => {
+                let e = n.saturating_add(steps).min(end);
+                k.set_steps(n, e);
+                let clock = std::time::Instant::now();
+                let out = run_copy(k, isa);
+                let ns = clock.elapsed().as_nanos() as f64;
+                plan::record(id, isa, copies, ns, e - n);
+                if e >= end || K::stops_early(&out) {
+                    return out;
+                }
+                n = e;
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn run_copy<K: Kernel>(k: &mut K, isa: Isa) -> K::Output {
+    // The conditions on the kernel's constants come first, so that a copy it does not want is
+    // never compiled (the build-time cut of compiled programs, chains and waves: no AVX-512 copy).
+    #[cfg(target_arch = "x86_64")]
+    if K::WIDE {
+        if K::AVX512 && isa == Isa::Avx512 {
+            // SAFETY: `copies` lists a copy only where `allowed` found its features.
+            return unsafe { run_avx512(k) };
+        }
+        if K::AVX2 && isa == Isa::Avx2 {
+            // SAFETY: as above.
             return unsafe { run_avx2(k) };
         }
     }
+    let _ = isa;
     run_baseline(k)
 }
 
@@ -85,7 +179,7 @@ fn run_baseline<K: Kernel>(k: &mut K) -> K::Output {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq")]
 #[inline(never)]
 unsafe fn run_avx512<K: Kernel>(k: &mut K) -> K::Output {
     k.run_for(64)
@@ -98,7 +192,7 @@ unsafe fn run_avx2<K: Kernel>(k: &mut K) -> K::Output {
     k.run_for(32)
 }
 
-/// `f()` in the best copy for this CPU: a loop over long vectors written as a closure (the
+/// `f()` in the widest copy for this CPU: a loop over long vectors written as a closure (the
 /// Krylov path's products and sums). The closure is inlined into each copy, so it is compiled for
 /// that copy's vectors; the same bits in every copy, as for any [`Kernel`].
 #[inline(always)]

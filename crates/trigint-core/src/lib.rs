@@ -13,14 +13,16 @@
 pub mod basis;
 pub mod channels;
 pub mod coefficients;
+pub mod cpu;
 pub mod description;
 pub mod energy;
 pub mod error;
 #[doc(hidden)]
 pub mod fixtures;
-mod isa;
+pub mod isa;
 pub mod krylov;
 pub mod output;
+pub mod plan;
 pub mod potential;
 pub mod real;
 pub mod recursion;

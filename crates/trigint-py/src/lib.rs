@@ -242,6 +242,43 @@ fn channels(n_blocks: usize, n_axes: usize) -> Vec<String> {
     channel_names(n_blocks, n_axes)
 }
 
+/// kernel_config() -> dict: the CPU, the kernel copies it may run, how copies are chosen, the
+/// plan cache and the plans known to this process (what `trigint info` prints)
+#[pyfunction]
+fn kernel_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    use trigint_core::{cpu, isa, plan};
+    let d = PyDict::new(py);
+    d.set_item("cpu", cpu::model())?;
+    d.set_item("features", cpu::features())?;
+    let allowed = isa::allowed();
+    let mut copies = Vec::new();
+    if allowed.avx512 {
+        copies.push("avx512");
+    }
+    if allowed.avx2 {
+        copies.push("avx2");
+    }
+    copies.push("baseline");
+    d.set_item("copies", copies)?;
+    d.set_item("isa_cap", std::env::var("TRIGINT_ISA").ok())?;
+    d.set_item("plan_mode", plan::mode().name())?;
+    d.set_item(
+        "plan_cache",
+        plan::cache_path().map(|p| p.display().to_string()),
+    )?;
+    let rows = PyList::empty(py);
+    for r in plan::report() {
+        let row = PyDict::new(py);
+        row.set_item("loop", r.key)?;
+        row.set_item("chosen", r.chosen)?;
+        row.set_item("timings", r.timings)?;
+        rows.append(row)?;
+    }
+    d.set_item("plans", rows)?;
+    d.set_item("core_version", env!("CARGO_PKG_VERSION"))?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
@@ -253,6 +290,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
+    m.add_function(wrap_pyfunction!(kernel_config, m)?)?;
     m.add_function(wrap_pyfunction!(krylov::integrate_krylov, m)?)?;
     m.add(
         "KRYLOV_FUNCTIONS",

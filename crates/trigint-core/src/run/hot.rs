@@ -155,6 +155,24 @@ impl<
         self.run_for(64)
     }
 
+    const PLANNED: bool = true;
+
+    fn steps(&self) -> Option<(u64, u64)> {
+        Some((self.n, self.e))
+    }
+
+    fn set_steps(&mut self, n: u64, e: u64) {
+        (self.n, self.e) = (n, e);
+    }
+
+    fn size(&self) -> usize {
+        self.sh.n()
+    }
+
+    fn stops_early(out: &CoreResult<Option<u64>>) -> bool {
+        !matches!(out, Ok(None))
+    }
+
     #[inline(always)]
     fn run_for(&mut self, vector_bytes: usize) -> CoreResult<Option<u64>> {
         // The state and the extremes as locals of this function: in registers for small shapes.

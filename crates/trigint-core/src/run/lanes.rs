@@ -76,6 +76,24 @@ impl<L: Real, Sh: Shape, P: Potential, const TRACK: bool, const PLAIN: bool, con
         self.run_for(64)
     }
 
+    const PLANNED: bool = true;
+
+    fn steps(&self) -> Option<(u64, u64)> {
+        Some((self.n, self.e))
+    }
+
+    fn set_steps(&mut self, n: u64, e: u64) {
+        (self.n, self.e) = (n, e);
+    }
+
+    fn size(&self) -> usize {
+        self.sh.n()
+    }
+
+    fn stops_early(out: &Option<u64>) -> bool {
+        out.is_some()
+    }
+
     #[inline(always)]
     fn run_for(&mut self, vector_bytes: usize) -> Option<u64> {
         // With 16 vector registers (AVX2) a bundle of 8 lanes does not fit them (FPU m = 3:
