@@ -14,7 +14,9 @@ $(PY):
 
 # Builds the Rust extension (release profile) and installs the package with its test extras.
 install: $(PY)
-	$(PY) -m pip install --quiet -e '.[test]'
+	@echo "trigint: installing; the first build of the Rust core (release) takes 5-15 minutes on 2 cores,"
+	@echo "trigint: later ones seconds. cargo's progress follows."
+	$(PY) scripts/install_progress.py -e '.[test]'
 
 test: install test-rust test-python
 

@@ -5,6 +5,7 @@ from a fresh run of the paper's figures."""
 
 from __future__ import annotations
 
+import logging
 import os
 import subprocess
 import sys
@@ -14,6 +15,9 @@ import trigint
 import trigint.experiments
 
 HERE = Path(__file__).parent
+# A handler on the root logger first, at WARNING: a theme dependency otherwise configures it at
+# INFO when imported, and the Dask gallery example would print its scheduler's chatter.
+logging.basicConfig(level=logging.WARNING)
 project = "trigint"
 author = "the trigint developers"
 copyright = "2026, the trigint developers"

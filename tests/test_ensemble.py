@@ -208,7 +208,7 @@ def test_step_sizes_evaluated_together_equal_one_at_a_time(method):
     must be bit for bit the numbers integrate() gets for that step size alone."""
     from trigint import _native
     from trigint._batch import prepare
-    from trigint.methods import resolve_method
+    from trigint._method_names import resolve_method
 
     omega = np.array([0.0, 50.0, 50 * np.sqrt(2), 70.0, 0.0, 123.0, 3.0])
     prob = ti.OscillatoryProblem(omega, ti.PythonPotential(lambda q: 0.0, lambda q: 0 * q))

@@ -34,7 +34,7 @@ def test_ensemble_takes_the_same_value(fpu):
     Q0, P0 = ti.perturb(q0, p0, [0.0, 1e-9])
     a = ti.ensemble(prob, "B", Q0, P0, h=H, n_steps=100, save_every=10)
     b = ti.ensemble(prob, "B", Q0, P0, h=H, n_steps=100, saveat=ti.SaveAt(every=10))
-    assert a.q.shape == (2, 12, 6) and np.array_equal(a.q.values, b.q.values, equal_nan=True)
+    assert a.q.shape == (2, 11, 6) and np.array_equal(a.q.values, b.q.values, equal_nan=True)
     none = ti.ensemble(prob, "B", Q0, P0, h=H, n_steps=100, saveat=ti.SaveAt(every=None))
     assert "q" not in none and np.array_equal(none.max_deviation.values, a.max_deviation.values)
 

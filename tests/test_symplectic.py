@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import trigint as ti
-from trigint.methods import resolve_method
+from trigint._method_names import resolve_method
 
 # Two oscillatory degrees of freedom, hω ≈ 1.5 and 1.2, coupled by a quadratic potential, so
 # that one step is a linear map and its columns are the images of the unit vectors.

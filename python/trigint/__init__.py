@@ -13,6 +13,7 @@ for oscillatory Hamiltonian systems under minimal non-resonance conditions*, BIT
 """
 
 from . import problems, resonance
+from ._config import show_config
 from ._filters import sinc
 from ._stiffness import Frequencies
 from ._store import StoreError
@@ -68,5 +69,6 @@ __all__ = [
     "problems",
     "resonance",
     "scan",
+    "show_config",
     "sinc",
 ]

@@ -223,3 +223,50 @@ def _short(value) -> str:
     except ValueError:  # an integer with more digits than Python prints
         return f"a {type(value).__name__} holding a huge integer"
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+def physical_memory() -> int:
+    """This machine's memory in bytes (32 GiB where the system does not say)."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 32 << 30
+
+
+#: the arrays of n numbers that one trajectory's run holds at least (state, checkpoint, last good
+#: state, method coefficients and energy weights)
+ARRAYS_PER_COORDINATE = 24
+
+
+def coordinates(n: int, name: str, what: str = "coordinates") -> int:
+    """A count of coordinates that a run could hold in memory, refused before anything is
+    allocated otherwise (a size the core cannot allocate would end the interpreter).
+
+    >>> coordinates(10**12, "n")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ValueError: n: 1000000000000 coordinates would need at least 175 TiB (...), more than this machine's ...
+    """
+    need = int(n) * 8 * ARRAYS_PER_COORDINATE
+    have = physical_memory()
+    if need > have:
+        raise ValueError(
+            f"{name}: {int(n)} {what} would need at least {_bytes(need)} ({ARRAYS_PER_COORDINATE} arrays of "
+            f"8-byte numbers), more than this machine's {_bytes(have)} memory"
+        )
+    return int(n)
+
+
+def _bytes(n: int) -> str:
+    """A byte count in the largest binary unit that leaves a number >= 1.
+
+    >>> _bytes(3 << 30)
+    '3 GiB'
+    """
+    value, unit = float(n), "bytes"
+    for u in ("KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if value < 1024:
+            break
+        value, unit = value / 1024, u
+    return f"{value:.3g} {unit}"

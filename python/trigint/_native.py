@@ -10,6 +10,7 @@ inputs in the user's coordinates (the permutation or Q composed into their input
 
 from __future__ import annotations
 
+import functools
 import weakref
 from dataclasses import dataclass
 
@@ -28,7 +29,13 @@ KRYLOV_FUNCTIONS: tuple[str, ...] = tuple(_core.KRYLOV_FUNCTIONS)
 def channel_names(n_blocks: int, n_axes: int = 0) -> list[str]:
     """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks and
     `n_axes` per-axis channels."""
-    return list(_core.channels(n_blocks, n_axes))
+    return list(_channel_names(int(n_blocks), int(n_axes)))
+
+
+@functools.lru_cache(maxsize=32)
+def _channel_names(n_blocks: int, n_axes: int) -> tuple[str, ...]:
+    # A wave problem has a channel per mode: tens of thousands of names, made once.
+    return tuple(_core.channels(n_blocks, n_axes))
 
 
 @dataclass(frozen=True)

@@ -66,6 +66,19 @@ def _spec(args) -> int:
     return 0
 
 
+def _info(args) -> int:
+    from trigint._config import config, format_config
+
+    cfg = config()
+    if args.json:
+        import json
+
+        print(json.dumps(cfg, indent=2))
+    else:
+        print(format_config(cfg))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from trigint import __version__
 
@@ -111,10 +124,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(run=_resonance)
 
     rp = sub.add_parser("reproduce", formatter_class=fmt, help="regenerate the paper's figures and measure its claims",
-                        description="Runs the paper's Figures 1-5 from their shipped specs, writes each figure "
-                                    "(PNG, PDF), its data (NetCDF) and report.md, every claim of the paper's "
-                                    "section 4 measured with its tolerance. Exit status 1 if a claim fails.")
-    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 ... fig5 or all")
+                        description="Runs the paper's Figures 1-5 and the wave experiment (wave1) from their "
+                                    "shipped specs, writes each figure (PNG, PDF), its data (NetCDF) and report.md, "
+                                    "every claim measured with its tolerance. Exit status 1 if a claim fails.")
+    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 ... fig5, wave1, or all")
     rp.add_argument("--out", default="reproduction", help="output folder")
     rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
     rp.add_argument("--seed", type=int, default=0,
@@ -126,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Runs one experiment spec: a TOML file such as a figure's spec written by "
                                     "'trigint spec fig3 > my.toml' and edited, or a figure's name. Writes the "
                                     "figure, its data and the measured claims into --out.")
-    ru.add_argument("spec", help="path of the TOML spec, or fig1 ... fig5")
+    ru.add_argument("spec", help="path of the TOML spec, or fig1 ... fig5, wave1")
     ru.add_argument("--out", default="reproduction", help="output folder")
     ru.add_argument("--quick", action="store_true", help="apply the spec's [quick] table: a reduced run")
     ru.set_defaults(run=_run_toml)
@@ -135,8 +148,16 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Prints the spec that 'trigint reproduce' runs for one figure, as TOML on "
                                     "standard output: 'trigint spec fig3 > my.toml', edit my.toml, then "
                                     "'trigint run my.toml'.")
-    sp.add_argument("figure", help="fig1 ... fig5")
+    sp.add_argument("figure", help="fig1 ... fig5, wave1")
     sp.set_defaults(run=_spec)
+
+    inf = sub.add_parser("info", formatter_class=fmt,
+                         help="the CPU, the kernel copies and the plans chosen, versions (for bug reports)",
+                         description="Prints the CPU model, the instruction-set copies of the kernels it may "
+                                     "run, how copies are chosen (TRIGINT_PLAN, TRIGINT_ISA), the plan cache's "
+                                     "location with the plan chosen per loop, and the versions.")
+    inf.add_argument("--json", action="store_true", help="one JSON object instead of the text")
+    inf.set_defaults(run=_info)
     return parser
 
 

@@ -110,7 +110,7 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
             return xr.Dataset({k: ((), v[0]) for k, v in data.items()})
         return xr.Dataset({k: ("sample", v) for k, v in data.items()})
     if method is not None:
-        from .methods import resolve_method
+        from ._method_names import resolve_method
 
         method = resolve_method(method)
     coefficients = method.coefficients(h, problem.omega) if method is not None else None

@@ -20,12 +20,13 @@ import xarray as xr
 
 from . import _check, _outputs, _progress
 from ._batch import core_arguments, prepare, run_chunk
+from ._method_names import resolve_method
 from ._native import METHOD_ROWS
 from ._outputs import STATUS_NAMES
 from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
 from .integrate import MAX_SAMPLE_BYTES, sample_bytes
-from .methods import Method, resolve_method
+from .methods import Method
 from .problem import OscillatoryProblem
 from .saveat import SaveAt
 
@@ -88,7 +89,11 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         ``initial_energies`` (trajectory, energy); ``status`` and ``steps_done`` (trajectory);
         coordinates ``h``, ``n_steps``; with ``save_every`` also ``q``, ``p`` (trajectory,
         sample, coordinate), ``energies`` (trajectory, sample, energy) and ``t`` (trajectory,
-        sample), padded with NaN where a trajectory has fewer samples.
+        sample). Trajectories that share ``n_steps`` have no padding: ``ds.q[:, -1]`` is each one's
+        final state. Where ``n_steps`` differs (a ``scan`` over step sizes at one ``t_end``), the
+        shorter ones are padded with NaN (``step`` −1) after their last sample; the coordinate
+        ``last_sample`` (trajectory) selects each one's final state:
+        ``ds.q.isel(sample=ds.last_sample)``.
 
     Examples
     --------
@@ -227,35 +232,42 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
 
     Parameters
     ----------
-    q0, p0 : array of float, shape (n,)
-        The initial values to perturb.
+    q0, p0 : array of float, shape (n,) or a wave problem's grid shape
+        The initial values to perturb (grid values of shape (64, 64) give (B, 64, 64)).
     deltas : array of float, shape (B,)
         One perturbation per trajectory (0 keeps the unperturbed values).
-    index : int
-        The entry that is moved.
+    index : int or tuple of int
+        The entry that is moved: a flat index, or a grid point (i, j, …) of grid-shaped values.
     component : {"q", "p"}
         Whether q0 or p0 is moved.
 
     Returns
     -------
-    Q, P : arrays of shape (B, n)
+    Q, P : arrays of shape (B, n), or (B,) + the grid shape
 
     >>> import trigint as ti
     >>> Q, P = ti.perturb([1.0, 0.0], [0.0, 1.0], [0.0, 1e-3])
     >>> Q.tolist()
     [[1.0, 0.0], [1.001, 0.0]]
     """
-    q0 = _check.real_array(q0, "q0").reshape(-1)
-    p0 = _check.real_array(p0, "p0").reshape(-1)
-    if p0.size != q0.size:
-        raise ValueError(f"p0: has {p0.size} entries, q0 has {q0.size}")
+    q0 = np.atleast_1d(_check.real_array(q0, "q0", ndim=None))
+    p0 = np.atleast_1d(_check.real_array(p0, "p0", ndim=None))
+    if p0.shape != q0.shape:
+        raise ValueError(f"p0: has shape {p0.shape}, q0 has {q0.shape}; give two arrays of one shape, "
+                         "(n,) or a wave problem's grid shape")
     deltas = _check.real_array(deltas, "deltas").reshape(-1)
     _check.choice(component, "component", ("q", "p"))
+    if isinstance(index, tuple):  # a grid point (i, j, …) of grid-shaped values
+        if len(index) != q0.ndim:
+            raise ValueError(f"index: {index} has {len(index)} entries for values of shape {q0.shape}")
+        index = int(np.ravel_multi_index(tuple(_check.integer(i, "index", low=0, high=n - 1)
+                                                for i, n in zip(index, q0.shape, strict=True)), q0.shape))
     index = _check.integer(index, "index", low=0, high=q0.size - 1)
-    Q = np.repeat(q0[None, :], deltas.size, axis=0)
-    P = np.repeat(p0[None, :], deltas.size, axis=0)
+    Q = np.repeat(q0.reshape(1, -1), deltas.size, axis=0)
+    P = np.repeat(p0.reshape(1, -1), deltas.size, axis=0)
     target = Q if component == "q" else P
     target[:, index] += deltas
+    Q, P = Q.reshape(deltas.size, *q0.shape), P.reshape(deltas.size, *q0.shape)
     return Q, P
 
 
@@ -381,9 +393,10 @@ def _execute(client, todo, spans, batch, args, kwargs):
     try:
         for future in as_completed(list(futures)):
             yield futures[future], future.result()
-    finally:
+    finally:  # an interrupted or failed run: drop the work still queued
         for future in futures:
-            future.cancel()
+            if not future.done():
+                future.cancel()
 
 
 def _sizes(problem, batch, names, save_every) -> dict:
@@ -395,7 +408,10 @@ def _sizes(problem, batch, names, save_every) -> dict:
 
 
 def _max_samples(batch, save_every) -> int:
-    return int(np.max(batch.n_steps) // save_every + 2)
+    """Samples of the longest trajectory: steps 0, s, 2s, … and its last step when that is not a
+    multiple of s (a blow-up or an interruption keeps no more than that)."""
+    n = np.asarray(batch.n_steps, dtype=np.int64)
+    return int(np.max(n // save_every + 1 + (n % save_every != 0)))
 
 
 def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans):
@@ -443,6 +459,8 @@ def _assemble(problem, method, batch, names, spans, results, stored, save_every)
     if with_samples:
         step = arrays["step"]
         data["t"] = (("trajectory", "sample"), np.where(step >= 0, step * batch.h[:, None], np.nan))
+        # Each trajectory's last kept sample (its final state): ds.q.isel(sample=ds.last_sample).
+        coords["last_sample"] = ("trajectory", np.maximum((step >= 0).sum(axis=1) - 1, 0))
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(method=repr(method), problem=repr(problem))
     return ds

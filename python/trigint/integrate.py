@@ -10,8 +10,9 @@ import numpy as np
 
 from . import _check, _native
 from . import _progress as progress_report
+from ._method_names import resolve_method
 from .energies import energy_names
-from .methods import Method, resolve_method
+from .methods import Method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 from .saveat import MAX_STEPS, SaveAt, check_steps
@@ -144,8 +145,12 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         )
     if problem.path == "krylov":
         return _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track_energies, progress)
-    co = method.coefficients(h, problem.omega, form=form)
-    _warn_near_resonance(co, method)
+    co = _coefficients(problem, method, h, form)
+    # A problem with its own resonance theory (a wave equation) warns after the run, knowing which
+    # modes carry energy; the others by the ODE condition (3.2), before it.
+    own_warning = getattr(problem, "warn_resonances", None)
+    if own_warning is None:
+        _warn_near_resonance(co, method)
     python_potential = isinstance(problem.potential, PythonPotential)
     every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
     callback, close = _progress(progress, n_steps, python_potential)
@@ -157,7 +162,30 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         close(None if out is None else int(out.steps_done[0]))
     if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
         raise RuntimeError(f"progress callback failed: {out.interrupted_by}")
-    return _solution(problem, method, h, n_steps, out, co)
+    sol = _solution(problem, method, h, n_steps, out, co)
+    if own_warning is not None:
+        own_warning(sol, method, stacklevel=3)
+    return sol
+
+
+#: method coefficients kept per problem, for repeated calls (a wave problem's 2¹⁶ frequencies
+#: take 17 ms to evaluate)
+COEFFICIENTS_KEPT = 4
+
+
+def _coefficients(problem, method: Method, h: float, form: str):
+    """``method.coefficients(h, problem.omega, form)``, kept on the problem for the next call
+    with the same method object, h and form (a problem's frequencies never change)."""
+    kept = problem.__dict__.setdefault("_coefficients_kept", {})
+    key = (id(method), h, form)
+    hit = kept.get(key)
+    if hit is not None and hit[0] is method:
+        return hit[1]
+    co = method.coefficients(h, problem.omega, form=form)
+    if len(kept) >= COEFFICIENTS_KEPT:
+        kept.pop(next(iter(kept)))
+    kept[key] = (method, co)  # the method kept alive, so that its id is not reused
+    return co
 
 
 def _warn_near_resonance(co, method: Method) -> None:

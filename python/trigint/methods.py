@@ -560,32 +560,3 @@ def _invert_increasing(f: Callable, y: np.ndarray) -> np.ndarray:
         if np.all(hi - lo <= 4 * np.finfo(float).eps * np.maximum(hi, 1e-300)):
             break
     return (0.5 * (lo + hi)).reshape(y.shape)
-
-
-#: the methods that are not a filter pair of the trigonometric family, by name
-MODIFIED_METHODS: dict[str, Callable[[], Method]] = {
-    "imex": IMEX,
-    "stormer-verlet": StormerVerlet,
-    "verlet": StormerVerlet,
-}
-
-
-def resolve_method(method: Method | str) -> Method:
-    """A method object from itself or a name ("A"–"E", filter aliases, "imex", "stormer-verlet")."""
-    if isinstance(method, Method):
-        return method
-    if isinstance(method, str):
-        key = method.strip().lower().replace("_", "-")
-        if key in MODIFIED_METHODS:
-            return MODIFIED_METHODS[key]()
-        try:
-            return Trigonometric(method)
-        except ValueError:
-            from ._filters import ALIASES
-
-            valid = ", ".join([*FILTERS, *ALIASES, *MODIFIED_METHODS])
-            raise ValueError(f"method: unknown name {method!r}; valid names are {valid}") from None
-    raise TypeError(
-        "method: expected a trigint method (Trigonometric('B'), IMEX(), AlphaMethod(alpha), ...) "
-        f"or its name, got {type(method).__name__}"
-    )

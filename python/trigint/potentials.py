@@ -183,7 +183,7 @@ class FPUPotential(Potential):
         if not isinstance(coordinates, str) or coordinates not in ("diagonal", "original"):
             raise ValueError(f"coordinates: expected 'diagonal' or 'original', got {coordinates!r}")
         self.m = int(m)
-        self.dim = 2 * self.m
+        self.dim = _check.coordinates(2 * self.m, "m", "coordinates (2m)")
         self.coordinates = coordinates
 
     def _map(self) -> dict | None:
@@ -444,7 +444,7 @@ class ChainPotential(Potential):
     """
 
     def __init__(self, n: int):
-        self.dim = _count(n, "n")
+        self.dim = _check.coordinates(_count(n, "n"), "n")
         self.terms: list[dict] = []
         self._descriptions: list[str] = []
 
@@ -586,7 +586,7 @@ class PythonPotential(Potential):
         if not isinstance(vectorized, bool):
             raise TypeError(f"vectorized: expected True or False, got {vectorized!r}")
         self.value_function, self.gradient_function = value, gradient
-        self.dim = None if dim is None else _count(dim, "dim")
+        self.dim = None if dim is None else _check.coordinates(_count(dim, "dim"), "dim")
         self.vectorized = vectorized
 
     def describe(self, n: int) -> dict:

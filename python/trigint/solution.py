@@ -7,6 +7,40 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
+#: channels a summary lists by name; the rest (one per block or mode) by their largest values
+SUMMARY_ENTRIES = 6
+
+
+class Channels(dict):
+    """A dict over energy channels that prints as a summary: the main channels, then how many
+    per-block (per-mode) entries there are and the largest of them. Every entry is still there.
+
+    >>> d = Channels({"total": 1e-3, **{f"oscillatory_{j}": j * 1e-6 for j in range(1, 501)}})
+    >>> d
+    {total=1.000e-03; 500 per-block entries, largest: oscillatory_500=5.000e-04, ...}
+    >>> d["oscillatory_7"]
+    7e-06
+    """
+
+    def __repr__(self) -> str:
+        blocks = [(k, v) for k, v in self.items() if k.startswith("oscillatory_")]
+        main = [(k, v) for k, v in self.items() if not k.startswith("oscillatory_")]
+        text = ", ".join(f"{k}={_number(v)}" for k, v in main)
+        if len(blocks) <= SUMMARY_ENTRIES:
+            text = ", ".join(x for x in (text, ", ".join(f"{k}={_number(v)}" for k, v in blocks)) if x)
+        else:
+            top = sorted(blocks, key=lambda kv: -abs(kv[1]) if np.isfinite(kv[1]) else -np.inf)[:3]
+            shown = ", ".join(f"{k}={_number(v)}" for k, v in top)
+            text += f"; {len(blocks)} per-block entries, largest: {shown}, ..."
+        return "{" + text + "}"
+
+
+def _number(v) -> str:
+    try:
+        return f"{float(v):.3e}"
+    except (TypeError, ValueError):
+        return repr(v)
+
 
 @dataclass(frozen=True)
 class Solution:
@@ -41,6 +75,8 @@ class Solution:
         The method that ran.
     problem : OscillatoryProblem
         The problem it ran on.
+    u, v : xarray.DataArray
+        A wave problem's samples of q and p as grid values over (t, x[, y, z]).
     info : dict
         How the run went beyond the energies: on the Krylov path, the Lanczos ``iterations``
         (total), ``products`` (matrix functions applied), ``iterations_per_product`` and
@@ -76,6 +112,35 @@ class Solution:
         """True when every requested step was taken."""
         return self.status == "completed"
 
+    @property
+    def u(self) -> xr.DataArray:
+        """A wave problem's sampled positions as grid values: dims (``t``, ``x``), (``t``, ``x``,
+        ``y``) or (``t``, ``x``, ``y``, ``z``), with the grid's coordinates (``sol.q`` holds the
+        same numbers flat, N per sample, in the grid's C order).
+
+        >>> import numpy as np, trigint as ti
+        >>> prob = ti.problems.wave((8, 6), rho=1.0)
+        >>> x, y = np.meshgrid(*prob.grid, indexing="ij")
+        >>> sol = ti.integrate(prob, "B", np.cos(x) * np.cos(y), 0 * x, h=0.1, n_steps=4, save_every=2)
+        >>> sol.u.dims, sol.u.shape
+        (('t', 'x', 'y'), (3, 8, 6))
+        """
+        return self._grid_view(self.q, "u")
+
+    @property
+    def v(self) -> xr.DataArray:
+        """A wave problem's sampled velocities u_t as grid values (see :attr:`u`)."""
+        return self._grid_view(self.p, "v")
+
+    def _grid_view(self, values: np.ndarray, name: str) -> xr.DataArray:
+        shape = getattr(self.problem, "shape", None)
+        if shape is None or not hasattr(self.problem, "grid"):
+            raise AttributeError(f"{name}: grid values are for wave problems (trigint.problems.wave); use q and p")
+        axes = ("x", "y", "z")[: len(shape)]
+        data = np.asarray(values).reshape(self.t.size, *shape)
+        coords = {"t": self.t, **dict(zip(axes, self.problem.grid, strict=True))}
+        return xr.DataArray(data, dims=("t", *axes), coords=coords, name=name)
+
     def deviation(self, energy: str = "oscillatory") -> xr.DataArray:
         """E(t) − E(0) at the samples for one energy.
 
@@ -89,8 +154,13 @@ class Solution:
             raise KeyError(f"energy: unknown name {energy!r}; valid: {list(self.energies.data_vars)}")
         return self.energies[energy] - self.initial_energies[energy]
 
+    def __post_init__(self):
+        for name in ("max_deviation", "initial_energies"):
+            if not isinstance(getattr(self, name), Channels):
+                object.__setattr__(self, name, Channels(getattr(self, name)))
+
     def __repr__(self) -> str:
-        devs = ", ".join(f"{k}={v:.3e}" for k, v in self.max_deviation.items())
+        devs = repr(Channels(self.max_deviation))[1:-1]
         return (
             f"Solution(status={self.status!r}, method={self.method!r}, h={self.h:g}, "
             f"n_steps={self.n_steps}, samples={self.t.size}, max_deviation: {devs})"

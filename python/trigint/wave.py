@@ -15,6 +15,7 @@ self-conjugate mode has its own I_j), with û = FFT(u)/N.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -89,7 +90,12 @@ class WaveProblem(OscillatoryProblem):
     shape : tuple of int
         Grid points per axis.
     grid : list of arrays
-        The grid x_k = 2πk/n of each axis.
+        The grid x_k = 2πk/n of each axis, one 1-D array per axis, in the order of `shape`
+        (x, y, z). Grid values of shape `shape` are indexed like
+        ``np.meshgrid(*prob.grid, indexing="ij")`` (the first index is x): :attr:`mesh`.
+    mesh : list of arrays
+        ``np.meshgrid(*grid, indexing="ij")``: the coordinates of every grid point, each of shape
+        `shape`, to write initial values as ``u0 = np.cos(x) * np.sin(2 * y)``.
     rho : float
         ρ.
     modes : array of int, shape (ℓ, d)
@@ -104,6 +110,7 @@ class WaveProblem(OscillatoryProblem):
                  variable: str = "u", modes=None):
         self.shape = shape
         self.rho = rho
+        _check.coordinates(math.prod(int(n) for n in shape), "shape", f"grid points ({' x '.join(map(str, shape))})")
         self.fourier_grid = _core.FourierGrid(list(shape))
         j = np.asarray(self.fourier_grid.wavevectors())
         parts = np.asarray(self.fourier_grid.parts())
@@ -184,12 +191,26 @@ class WaveProblem(OscillatoryProblem):
         return [2 * np.pi * np.arange(n) / n for n in self.shape]
 
     @property
+    def mesh(self) -> list[np.ndarray]:
+        """``np.meshgrid(*self.grid, indexing="ij")``: the coordinates x, y, … of every grid point.
+
+        >>> import trigint as ti
+        >>> x, y = ti.problems.wave((8, 6), rho=1.0).mesh
+        >>> x.shape, float(x[1, 0]), float(y[0, 1])
+        ((8, 6), 0.7853981633974483, 1.0471975511965976)
+        """
+        return np.meshgrid(*self.grid, indexing="ij")
+
+    @property
     def points(self) -> int:
         """N, the number of grid points (= coordinates)."""
         return self._n
 
     def as_state(self, x, name: str) -> np.ndarray:
         """Grid values of shape (…, *shape) as flat states (…, N); flat ones pass unchanged."""
+        if isinstance(x, str | bytes | dict) or x is None:
+            raise TypeError(f"{name}: expected grid values, an array of shape {self.shape} (or {self._n} flat "
+                            f"values), got {type(x).__name__} {_check.shown(x)}")
         a = np.asarray(x)
         d = len(self.shape)
         if a.ndim >= d and a.shape[a.ndim - d:] == self.shape:
@@ -219,6 +240,40 @@ class WaveProblem(OscillatoryProblem):
         w = f["weights"].reshape(len(self.shape), -1)
         return (q[..., a] * p[..., b] - q[..., b] * p[..., a]) @ w.T
 
+    def warn_resonances(self, sol, method, stacklevel: int = 3) -> None:
+        """Warns after a run when a mode or a mode combination that carries energy is near a
+        numerical resonance at the run's step size (:func:`trigint.resonance.energy_resonances`
+        on the initial mode energies); names the modes by wavevector. A resonant mode that
+        carries no energy moves none: no warning (a run with hK > π always has such modes)."""
+        import warnings
+
+        from .resonance.wave import energy_resonances
+
+        initial = [sol.initial_energies[f"oscillatory_{b + 1}"] for b in range(len(self.modes))]
+        tolerance = min(float(np.sqrt(sol.h)), 0.1)
+        found = energy_resonances(self, sol.h, initial, tolerance=tolerance)
+        if not found:
+            return
+        r = found[0]
+        what = (f"mode j = {r.modes[0]} with h*omega_j = {sol.h * r.combination:.6g}" if len(r.modes) == 1 else
+                "modes j = {}, k = {}, l = {} with h/2*(omega_j {} omega_k {} omega_l) = {:.6g}".format(
+                    *r.modes, "+" if r.signs[1] > 0 else "-", "+" if r.signs[2] > 0 else "-",
+                    0.5 * sol.h * r.combination))
+        total, e0 = sol.max_deviation.get("total", np.nan), abs(sol.initial_energies.get("total", np.nan))
+        drift = total / e0 if e0 > 0 else np.nan
+        kept = (f"; here the total energy was kept to {drift:.1e} (relative)" if np.isfinite(drift) and drift <= 1e-6
+                else f"; here the total energy deviated by {drift:.1e} (relative) and may drift further"
+                if np.isfinite(drift) else "")
+        more = f" ({len(found) - 1} more)" if len(found) > 1 else ""
+        warnings.warn(
+            f"numerical resonance of the wave equation: {what} is {r.distance:.3g} (|sin|) from a multiple of pi"
+            + ("; that mode carries energy, which the step size may move" if len(r.modes) == 1 else
+               f", and it couples modes that carry energy: energy may move into mode {r.affected}")
+            + " over long times "
+            + f"(Cohen, Hairer, Lubich 2008){kept}. trigint.resonance.energy_resonances(problem, h, mode_energies) "
+            f"ranks every such combination{more}; wave_resonances(problem, h) lists them all",
+            RuntimeWarning, stacklevel=stacklevel)
+
     def energy_dataset(self, names: list[str], energies: np.ndarray, coords: dict, attrs: dict) -> xr.Dataset:
         """The wave's energies at the samples: H (``total``), H_ω, ``slow``, H*_ω, the
         ``momentum`` (over ``axis``, streamed) and the ``action`` J_j over (t, mode) for
@@ -233,16 +288,17 @@ class WaveProblem(OscillatoryProblem):
         coords, attrs : dict
             The Dataset's coordinates (``t``, ``step``) and attributes.
         """
-        whole = {name: ("t", energies[:, k]) for k, name in enumerate(names) if not name[-1].isdigit()}
+        first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
+        whole = {name: ("t", energies[:, k]) for k, name in enumerate(names[:first]) if not name[-1].isdigit()}
         streamed = [f"momentum_{m + 1}" for m in range(self.n_axes)]
         momentum = {"momentum": (("t", "axis"), np.stack([energies[:, names.index(k)] for k in streamed], axis=1))
                     } if streamed else {}
-        first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
         data = {**whole, **momentum, "action": (("t", "mode"), actions)}
-        return xr.Dataset(data, coords={**coords, **self._mode_coords(), "axis": np.arange(len(self.shape))},
-                          attrs=attrs)
+        # axis a (0-based, as NumPy's) is the channel momentum_{a+1} of max_deviation
+        axes = {"axis": np.arange(len(self.shape)), **({"channel": ("axis", streamed)} if streamed else {})}
+        return xr.Dataset(data, coords={**coords, **self._mode_coords(), **axes}, attrs=attrs)
 
     def _mode_coords(self) -> dict:
         d = len(self.shape)

@@ -9,9 +9,9 @@ import numpy as np
 import xarray as xr
 
 from .. import problems
+from .._method_names import resolve_method
 from ..ensemble import ensemble, scan
 from ..integrate import integrate
-from ..methods import resolve_method
 from ..resonance import resonant_step_sizes
 from .numbers import number
 

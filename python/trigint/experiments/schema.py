@@ -106,7 +106,7 @@ class FileName:
 @dataclass(frozen=True)
 class Method:
     def check(self, key: str, value):
-        from ..methods import resolve_method
+        from .._method_names import resolve_method
 
         if not isinstance(value, str):
             raise SpecError(f"{key}: expected a method name such as \"B\" or \"imex\", got {value!r}")

@@ -11,7 +11,7 @@ never steps an ODE.
 from .conditions import ResonanceReport, Violation, analyze, nonresonance_violations, resonance_module
 from .gap import ModifiedFrequencies, gap, modified_frequencies
 from .steps import ResonantStep, resonant_step_sizes
-from .wave import WaveResonance, cfl_number, wave_resonances
+from .wave import WaveResonance, cfl_number, energy_resonances, wave_resonances
 
 __all__ = [
     "ModifiedFrequencies",
@@ -26,5 +26,6 @@ __all__ = [
     "nonresonance_violations",
     "resonance_module",
     "resonant_step_sizes",
+    "energy_resonances",
     "wave_resonances",
 ]

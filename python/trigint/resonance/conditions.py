@@ -8,7 +8,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .. import _check
-from ..methods import AlphaMethod, Method, ModifiedTrigonometric, resolve_method
+from .._method_names import resolve_method
+from ..methods import AlphaMethod, Method, ModifiedTrigonometric
 from ._lattice import check_size, half_ball, hermite_basis
 
 TWO_PI = 2.0 * np.pi

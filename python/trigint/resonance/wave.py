@@ -31,6 +31,10 @@ class WaveResonance:
         ω_j ± ω_k ± ω_l, or ω_j for a mode alone.
     distance : float
         |sin(½h · combination)| for a triple, |sin(hω_j)| for a mode alone.
+    affected : tuple of int or None
+        From :func:`energy_resonances`: the wavevector predicted to gain energy.
+    weight : float
+        From :func:`energy_resonances`: the ranking weight (0 otherwise).
 
     Examples
     --------
@@ -44,6 +48,8 @@ class WaveResonance:
     signs: tuple
     combination: float
     distance: float
+    affected: tuple | None = None
+    weight: float = 0.0
 
 
 def cfl_number(problem, h: float) -> float:
@@ -101,21 +107,30 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     for b in np.flatnonzero((alone < tolerance) & (h * omega >= np.pi / 2)):
         found.append(WaveResonance(((tuple(int(c) for c in modes[b]),)), (1,), float(omega[b]), float(alone[b])))
     low = min(int(max_modes), modes.shape[0])
+    for _, _, _, wavevectors, signs, combo, dist in _triples(problem, h, tolerance, range(low)):
+        found.append(WaveResonance(wavevectors, signs, combo, dist))
+    # one entry per combination (the loops meet each triple from both of its summands)
+    unique = {_combination(r): r for r in reversed(found)}
+    return sorted(unique.values(), key=lambda r: (r.distance, r.modes))
+
+
+def _combination(r: WaveResonance) -> tuple:
+    """What identifies a combination whichever of its summands it was met from."""
+    return tuple(sorted(tuple(abs(c) for c in m) for m in r.modes)), round(abs(r.combination), 9)
+
+
+def _triples(problem, h: float, tolerance: float, blocks):
+    """The triples j = k ± l of modes k, l in `blocks` (each pair once) whose ½h(ω_j ± ω_k ± ω_l)
+    is within `tolerance` (|sin|) of a non-zero multiple of π: (block of j, block of k, block of l,
+    the three wavevectors, the signs, the combination, the distance)."""
+    modes, omega, shape = problem.modes, problem.mode_frequencies, np.asarray(problem.shape)
     index = {tuple(int(c) for c in m): b for b, m in enumerate(modes)}
-
-    def lookup(j):
-        """The block of wavevector j (stored as j or as −j) and the stored wavevector, or (None, None)."""
-        for key in (tuple(int(c) for c in j), tuple(-int(c) for c in j)):
-            if key in index:
-                return index[key], key
-        return None, None
-
-    shape = np.asarray(problem.shape)
-    for a in range(low):
-        for b in range(a, low):
+    blocks = list(blocks)
+    for i, a in enumerate(blocks):
+        for b in blocks[i:]:
             for sign_l in (1, -1):
-                j = (modes[a] + sign_l * modes[b] + shape // 2) % shape - shape // 2
-                c, key = lookup(j)
+                j = tuple(int(x) for x in (modes[a] + sign_l * modes[b] + shape // 2) % shape - shape // 2)
+                c = index.get(j, index.get(tuple(-x for x in j)))  # stored as j or as −j
                 if c is None:
                     continue
                 for s1 in (1, -1):
@@ -127,10 +142,80 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
                             continue
                         dist = abs(np.sin(0.5 * h * combo))
                         if dist < tolerance:
-                            found.append(WaveResonance(
-                                (key, tuple(int(x) for x in modes[a]),
-                                 tuple(int(x) for x in sign_l * modes[b])), (1, s1, s2), float(combo), float(dist)))
-    # one entry per combination (the loops meet each triple from both of its summands)
-    unique = {(tuple(sorted(tuple(abs(c) for c in m) for m in r.modes)), round(abs(r.combination), 9)): r
-              for r in reversed(found)}
-    return sorted(unique.values(), key=lambda r: (r.distance, r.modes))
+                            wavevectors = (tuple(int(x) for x in modes[c]), tuple(int(x) for x in modes[a]),
+                                           tuple(int(x) for x in sign_l * modes[b]))
+                            yield c, a, b, wavevectors, (1, s1, s2), float(combo), float(dist)
+
+
+#: a mode carries energy when it holds at least this fraction of the oscillatory energy (far above
+#: the round-off of the energies, about 1e-32 of the total, and below the smallest stratum the
+#: warnings care about)
+CARRIES_ENERGY = 1e-10
+
+
+def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05, floor: float = CARRIES_ENERGY,
+                      max_modes: int = 64) -> list[WaveResonance]:
+    """The near-resonant combinations of :func:`wave_resonances` that can move energy, ranked.
+
+    A mode alone counts when it carries energy (E_j ≥ `floor` · Σ E); a triple j = k ± l when at
+    least two of its modes do: the third is the one predicted to gain energy (``affected``, the
+    combination's mode with the least energy). Ranked by ``weight`` = (product of the amplitudes
+    √E of the two most energetic modes, or E_j alone, relative to Σ E) / distance: the small
+    denominator of the modulated Fourier expansion times what drives it (Cohen, Hairer, Lubich,
+    Numer. Math. 110 (2008), §3).
+
+    Parameters
+    ----------
+    problem : WaveProblem
+    h : float
+        The step size.
+    mode_energies : array, shape (ℓ,)
+        The energy of each mode (block) of `problem`, in the order of ``problem.modes``, e.g.
+        ``[sol.initial_energies[f"oscillatory_{b + 1}"] for b in range(len(problem.modes))]``.
+    tolerance, max_modes
+        As in :func:`wave_resonances`.
+    floor : float
+        The fraction of the total below which a mode is taken to carry no energy.
+
+    Examples
+    --------
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.wave(16, rho=0.0)
+    >>> e = np.zeros(len(prob.modes)); e[2] = 1.0          # mode 3 alone carries energy
+    >>> r = ti.resonance.energy_resonances(prob, np.pi / 3 - 1e-5, e)  # hω_3 ≈ π
+    >>> r[0].modes, r[0].affected
+    (((3,),), (3,))
+    """
+    energies = np.abs(np.asarray(mode_energies, dtype=float).reshape(-1))
+    if energies.size != len(problem.modes):
+        raise ValueError(f"mode_energies: expected {len(problem.modes)} values (one per mode), got {energies.size}")
+    total = float(np.sum(energies[np.isfinite(energies)]))
+    if total <= 0.0:
+        return []
+    relative = energies / total
+    carrying = relative >= floor
+    h = step_size(h)
+    omega, modes = problem.mode_frequencies, problem.modes
+    ranked: dict = {}
+
+    def keep(r: WaveResonance):
+        key = _combination(r)
+        if key not in ranked or ranked[key].weight < r.weight:
+            ranked[key] = r
+
+    alone = np.abs(np.sin(h * omega))
+    for b in np.flatnonzero(carrying & (alone < tolerance) & (h * omega >= np.pi / 2)):
+        m = tuple(int(c) for c in modes[b])
+        keep(WaveResonance((m,), (1,), float(omega[b]), float(alone[b]), m,
+                           float(relative[b]) / max(float(alone[b]), 1e-300)))
+    # Triples j = k ± l driven by two modes that carry energy (the most energetic max_modes).
+    drivers = np.flatnonzero(carrying)
+    drivers = drivers[np.argsort(-relative[drivers], kind="stable")][: int(max_modes)]
+    for c, a, b, wavevectors, signs, combo, dist in _triples(problem, h, tolerance, drivers):
+        e = relative[[c, a, b]]
+        least = (c, a, b)[int(np.argmin(e))]
+        top = np.sort(e)[-2:]
+        keep(WaveResonance(wavevectors, signs, combo, dist, tuple(int(x) for x in modes[least]),
+                           float(np.sqrt(top[0] * top[1])) / max(dist, 1e-300)))
+    ranked = list(ranked.values())
+    return sorted(ranked, key=lambda r: -r.weight)
