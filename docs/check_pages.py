@@ -1,6 +1,7 @@
 """Checks the built site as rendered (run by `make docs` after sphinx-build): the API pages show
 no empty constructor entry, no table row without its description and no paragraph set as a
-bold parameter name; no page shows markup that was not rendered (MyST roles or fences as text).
+bold parameter name; no page shows markup that was not rendered (MyST roles or fences as text,
+TeX in a code block) or loads a script from the network.
 
 Usage: python docs/check_pages.py [docs/_build/html]
 """
@@ -37,6 +38,10 @@ def check_page(path: Path) -> list[str]:
     main = body.split('<article', 1)[-1].split('</article>', 1)[0]
     shown = text(re.sub(r"<pre>.*?</pre>", "", main, flags=re.S))
     problems = []
+    if re.search(r'<script[^>]*\ssrc="(https?:)?//', body):
+        problems.append("a script loaded from the network")
+    if any(re.search(r"[A-Za-z]_\{", text(block)) for block in re.findall(r"<pre>(.*?)</pre>", main, re.S)):
+        problems.append("TeX in a code block (write it as $...$ math)")
     for pattern, what in ((r"\{(func|class|meth|mod|ref|doc)\}`", "an unrendered MyST role"),
                           (r"```", "a literal code fence"), (r"\|---", "an unrendered table")):
         if re.search(pattern, shown):

@@ -1,7 +1,7 @@
-"""Sphinx configuration (no math extension: formulas are written in Unicode, so the pages load
-nothing from the network): API reference from the docstrings (numpydoc), a gallery of executed
-examples (sphinx-gallery), narrative pages in Markdown (MyST), and a reproduction page built
-from a fresh run of the paper's figures."""
+"""Sphinx configuration: formulas rendered by MathJax from a copy shipped with the site
+(sphinx-mathjax-offline), so the pages load nothing from the network; API reference from the
+docstrings (numpydoc), a gallery of executed examples (sphinx-gallery), narrative pages in
+Markdown (MyST), and a reproduction page built from a fresh run of the paper's figures."""
 
 from __future__ import annotations
 
@@ -30,7 +30,10 @@ extensions = [
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
+    "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax 3 from the package, copied into _static/mathjax
 ]
+myst_enable_extensions = ["dollarmath", "amsmath"]  # $...$ and $$...$$ in the Markdown pages
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "_generated/**/*.md", "examples/README.txt"]
 html_theme = "furo"
@@ -76,7 +79,7 @@ def _reproduction_page() -> None:
     out = HERE / "_generated" / "reproduction"
     report = (out / "report.md").read_text(encoding="utf-8").splitlines()
     header = [line for line in report if line.startswith("| figure") or line.startswith("|---")]
-    summary = [line for line in report if line.startswith("Run:") or line.endswith("claims pass.")]
+    summary = [line for line in report if line.startswith(("Run:", "Machine:")) or line.endswith("claims pass.")]
     titles = {f: trigint.experiments.load(f)["figure"]["title"] for f in trigint.experiments.FIGURES}
     parts = [
         "# Reproduction of the paper's figures\n",

@@ -29,6 +29,10 @@ def test_every_quick_claim_passes(quick):
             assert (out / f"{fig}.{ext}").stat().st_size > 1000
     report = (out / "report.md").read_text()
     assert f"{len(claims)} of {len(claims)} claims pass" in report
+    # run times are stated with the machine they were taken on
+    from trigint._config import config
+
+    assert f"Machine: {config()['cpu']}, " in report
 
 
 def test_figure1_exponents(quick):

@@ -40,6 +40,7 @@ from .potentials import (
 from .problem import OscillatoryProblem
 from .saveat import SaveAt
 from .solution import Solution
+from .wave import WaveProblem
 
 __version__ = "0.1.0"
 
@@ -58,6 +59,7 @@ __all__ = [
     "Potential",
     "PythonPotential",
     "SaveAt",
+    "WaveProblem",
     "Solution",
     "StoreError",
     "StormerVerlet",

@@ -83,7 +83,34 @@ def _python_potential(v: Callable, dv: Callable, fmap: FourierMap) -> PythonPote
 
 class WaveProblem(OscillatoryProblem):
     """The spectral semi-discretization of u_tt = Δu − ρu − V'(u) on the torus (build it with
-    :func:`trigint.problems.wave`).
+    :func:`trigint.problems.wave`, which checks and normalizes the arguments).
+
+    The grid values u(x_k) are the coordinates a user sees (initial values, ``sol.u``); inside,
+    the real Fourier coefficients are the oscillatory coordinates, with ω_j = √(ρ + |j|²) and one
+    block per mode pair {j, −j}, blocks in order of frequency.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Grid points per axis (1 to 3 axes, each even).
+    rho : float
+        ρ ≥ 0, the mass term.
+    potential : str, sympy.Expr or (callable, callable)
+        V(u), as for :func:`trigint.problems.wave`.
+    params : dict of str → float or None
+        Values of the other symbols of `potential`.
+    variable : str
+        The name of u in `potential`.
+    modes : sequence of wavevectors or None
+        The modes whose actions are kept as samples (None: the default of
+        :func:`trigint.problems.wave`).
+
+    Examples
+    --------
+    >>> import trigint as ti
+    >>> prob = ti.problems.wave((8, 8), rho=1.0, potential="u**4 / 4")
+    >>> isinstance(prob, ti.WaveProblem), prob.dim, prob.modes[:3].tolist()
+    (True, 64, [[0, 0], [0, 1], [1, 0]])
 
     Attributes
     ----------
@@ -207,7 +234,15 @@ class WaveProblem(OscillatoryProblem):
         return self._n
 
     def as_state(self, x, name: str) -> np.ndarray:
-        """Grid values of shape (…, *shape) as flat states (…, N); flat ones pass unchanged."""
+        """Grid values of shape (…,) + `shape` as flat states (…, N); flat ones pass unchanged.
+
+        Parameters
+        ----------
+        x : array
+            Grid values, or flat values (…, N).
+        name : str
+            The argument's name, for errors.
+        """
         if isinstance(x, str | bytes | dict) or x is None:
             raise TypeError(f"{name}: expected grid values, an array of shape {self.shape} (or {self._n} flat "
                             f"values), got {type(x).__name__} {_check.shown(x)}")
@@ -221,11 +256,17 @@ class WaveProblem(OscillatoryProblem):
                          f"got shape {a.shape}")
 
     def fourier(self, u) -> np.ndarray:
-        """The real Fourier coordinates (the problem's order) of grid values u (…, N)."""
+        """The real Fourier coordinates (the problem's order) of grid values u.
+
+        Parameters
+        ----------
+        u : array, shape (…, N) or (…,) + `shape`
+            Grid values.
+        """
         return self.fourier_map.to_core(np.asarray(self.as_state(u, "u"), dtype=float))
 
     def momentum(self, u, v) -> np.ndarray:
-        """K = −mean_x(v ∇u) of grid values u, v of shape (…, N) or (…, *shape): one component
+        """K = −mean_x(v ∇u) of grid values u, v of shape (…, N) or (…,) + `shape`: one component
         per axis (the last axis of the result), the derivative spectral (the Nyquist
         wavenumber's derivative 0). The form the core streams as ``momentum_1`` ….
 
@@ -244,7 +285,17 @@ class WaveProblem(OscillatoryProblem):
         """Warns after a run when a mode or a mode combination that carries energy is near a
         numerical resonance at the run's step size (:func:`trigint.resonance.energy_resonances`
         on the initial mode energies); names the modes by wavevector. A resonant mode that
-        carries no energy moves none: no warning (a run with hK > π always has such modes)."""
+        carries no energy moves none: no warning (a run with hK > π always has such modes).
+
+        Parameters
+        ----------
+        sol : Solution
+            The finished run (its step size, initial mode energies and energy deviation).
+        method : Method
+            The run's method.
+        stacklevel : int
+            Passed to :func:`warnings.warn`, to point at the user's call.
+        """
         import warnings
 
         from .resonance.wave import energy_resonances

@@ -165,6 +165,8 @@ def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: fl
         + (f" (two at a time); wall time {wall:.1f} s." if wall is not None
            else f"; total {sum(timings.values()):.1f} s."),
         "",
+        f"Machine: {_machine()}.",
+        "",
         "| figure | claim | measured | expected | tolerance | verdict |",
         "|---|---|---:|---|---|---|",
     ]
@@ -177,6 +179,17 @@ def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: fl
     text = "\n".join(lines) + "\n"
     Path(path).write_text(text, encoding="utf-8")
     return text
+
+
+def _machine() -> str:
+    """The CPU the timings were taken on, its cores and the widest kernel copy it runs."""
+    import os
+
+    from .._config import config
+
+    cfg = config()
+    copy = cfg["isa_cap"] or cfg["copies"][0]
+    return f"{cfg['cpu']}, {os.cpu_count()} logical cores, kernel copies up to {copy}, {cfg['platform']}"
 
 
 def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed: int = 0,
