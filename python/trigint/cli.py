@@ -124,10 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(run=_resonance)
 
     rp = sub.add_parser("reproduce", formatter_class=fmt, help="regenerate the paper's figures and measure its claims",
-                        description="Runs the paper's Figures 1-5 and the wave experiment (wave1) from their "
+                        description="Runs the paper's Figures 1-5 and two wave experiments (wave1: resonances; "
+                                    "strata: energy strata, Gauckler, Hairer, Lubich, Weiss 2012) from their "
                                     "shipped specs, writes each figure (PNG, PDF), its data (NetCDF) and report.md, "
                                     "every claim measured with its tolerance. Exit status 1 if a claim fails.")
-    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 ... fig5, wave1, or all")
+    rp.add_argument("figures", nargs="*", default=["all"], help="fig1 ... fig5, wave1, strata, or all")
     rp.add_argument("--out", default="reproduction", help="output folder")
     rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
     rp.add_argument("--seed", type=int, default=0,
@@ -148,7 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Prints the spec that 'trigint reproduce' runs for one figure, as TOML on "
                                     "standard output: 'trigint spec fig3 > my.toml', edit my.toml, then "
                                     "'trigint run my.toml'.")
-    sp.add_argument("figure", help="fig1 ... fig5, wave1")
+    sp.add_argument("figure", help="fig1 ... fig5, wave1, strata")
     sp.set_defaults(run=_spec)
 
     inf = sub.add_parser("info", formatter_class=fmt,

@@ -136,7 +136,7 @@ def figure(ds):
     """
     kind = ds.attrs["kind"]
     return {"families": _plot_families, "perturbed": _plot_perturbed, "scan": _plot_scan,
-            "methods": _plot_methods, "wave": _plot_wave}[kind](ds)
+            "methods": _plot_methods, "wave": _plot_wave, "strata": _plot_strata}[kind](ds)
 
 
 #: the page width (inches) at which the figures' fonts have their nominal size: a figure
@@ -288,6 +288,13 @@ def _plot_methods(ds):
     fig.suptitle(ds.attrs["title"], fontsize=10)
     _caption(fig, ds)
     return fig
+
+
+def _plot_strata(ds):
+    from .experiments.strata_runner import plot_strata
+
+    _pyplot()
+    return plot_strata(ds, _caption)
 
 
 def _plot_wave(ds):

@@ -75,7 +75,7 @@ def measure(ds: xr.Dataset) -> list[Claim]:
     True
     """
     return {"families": _families, "perturbed": _perturbed, "scan": _scan, "methods": _methods,
-            "wave": _wave}[ds.attrs["kind"]](ds)
+            "wave": _wave, "strata": _strata}[ds.attrs["kind"]](ds)
 
 
 def _slope_through_origin(t: np.ndarray, y: np.ndarray) -> float:
@@ -296,6 +296,13 @@ def _wave(ds: xr.Dataset) -> list[Claim]:
               "flagged: " + ("yes" if near[top] else "no"), bool(near[top] and factor >= a["peak_factor"])),
         *_wave_actions(ds, near),
     ]
+
+
+def _strata(ds: xr.Dataset) -> list[Claim]:
+    """The energy strata's claims (``strata_runner.strata_claims``)."""
+    from .strata_runner import strata_claims
+
+    return strata_claims(ds)
 
 
 def _wave_actions(ds: xr.Dataset, near: np.ndarray) -> list[Claim]:

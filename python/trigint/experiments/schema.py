@@ -148,7 +148,7 @@ POSITIVE = Float(positive=True)
 NONNEG = Float(low=0.0)
 
 COMMON = {
-    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods", "wave")), "title": Str(),
+    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods", "wave", "strata")), "title": Str(),
     "caption": Str(),
     "seed": Int(0, 10**6), "energy": Str(ENERGIES), "samples": Int(2, 10**7),
 }
@@ -187,6 +187,14 @@ KEYS = {
         "t_end": POSITIVE, "tolerance": POSITIVE, "order": Float(), "order_tolerance": POSITIVE,
         "peak_factor": POSITIVE, "action_bound": POSITIVE, "action_factor": POSITIVE,
     },
+    "strata": {
+        **COMMON, "problem": Str(("wave",)), "n": Int(2, 2**12), "rho": POSITIVE, "potential": Str(),
+        "method": Method(), "epsilons": List(POSITIVE), "h": POSITIVE, "t_end": POSITIVE, "modes": Int(1, 64),
+        "scan_epsilon": POSITIVE, "h_min": POSITIVE, "h_max": POSITIVE, "points": Int(2, 10**5),
+        "scan_t_end": POSITIVE, "order": Int(2, 5), "tolerance": POSITIVE, "exponent_tolerance": POSITIVE,
+        "floor_factor": POSITIVE, "band_bound": POSITIVE, "break_factor": POSITIVE, "recall_min": POSITIVE,
+        "first_factor": POSITIVE, "precision_min": POSITIVE,
+    },
 }
 REQUIRED = {
     "families": ("kind", "problem", "panel"),
@@ -194,6 +202,8 @@ REQUIRED = {
     "scan": ("kind", "problem", "omega", "t_end", "centres"),
     "methods": ("kind", "problem", "methods", "omegas", "t_end"),
     "wave": ("kind", "problem", "n", "h_min", "h_max", "t_end"),
+    "strata": ("kind", "problem", "n", "rho", "epsilons", "h", "t_end", "scan_epsilon", "h_min", "h_max", "points",
+               "scan_t_end"),
 }
 TOP_LEVEL = ("figure", "panel", "claims", "quick")
 

@@ -11,6 +11,7 @@ never steps an ODE.
 from .conditions import ResonanceReport, Violation, analyze, nonresonance_violations, resonance_module
 from .gap import ModifiedFrequencies, gap, modified_frequencies
 from .steps import ResonantStep, resonant_step_sizes
+from .strata import Combinations, combinations, predicted_strata, strata_resonances
 from .wave import WaveResonance, cfl_number, energy_resonances, wave_resonances
 
 __all__ = [
@@ -27,5 +28,9 @@ __all__ = [
     "resonance_module",
     "resonant_step_sizes",
     "energy_resonances",
+    "predicted_strata",
+    "combinations",
+    "Combinations",
+    "strata_resonances",
     "wave_resonances",
 ]
