@@ -86,7 +86,8 @@ def _reproduction_page() -> None:
         "Generated when these pages were built, by `trigint reproduce all` (the same as "
         "`make reproduce`): every figure of §4 of the paper at full resolution, and every claim the "
         "paper makes about it, measured on the data with its tolerance; then a wave-equation "
-        "experiment beyond the paper (`wave1`), with its claims. " + " ".join(summary) + "\n",
+        "experiment beyond the paper (`wave1`) and the energy strata of a second wave paper (`strata`), "
+        "each with its claims. " + " ".join(summary) + "\n",
         "Where the paper's statement had to be made precise to be measured, the claim's wording in "
         "the tables says how (Figure 3: the median over 9 realizations of the initial values where "
         "the deviation is a random walk; Figure 5: the growth rate fitted on the first quarter of "
@@ -95,7 +96,9 @@ def _reproduction_page() -> None:
     ]
     for fig, title in titles.items():
         rows = [line for line in report if line.startswith(f"| {fig} ")]
-        label = f"Fig. {fig[3:]}" if fig.startswith("fig") else f"Beyond the paper, {fig}"
+        label = (f"Fig. {fig[3:]}" if fig.startswith("fig") else
+                 "A second wave paper (Gauckler, Hairer, Lubich, Weiss 2012), strata" if fig == "strata" else
+                 f"Beyond the paper, {fig}")
         parts += [f"## {label}: {title}\n", f"![{fig}](_generated/reproduction/{fig}.png)\n",
                   "\n".join(header + rows) + "\n"]
     bench = (HERE.parent / "benchmarks" / "results.md").read_text(encoding="utf-8")
