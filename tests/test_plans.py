@@ -16,7 +16,7 @@ prob = ti.problems.fpu(3, 50.0); q0, p0 = ti.problems.fpu_initial(3, 50.0)
 h = 2 * np.pi / 3 / 50
 one = ti.integrate(prob, "B", q0, p0, h=h, n_steps=400_000, save_every=100_000)
 Q0, P0 = ti.perturb(q0, p0, np.linspace(0, 1e-6, 16))
-ens = ti.ensemble(prob, "C", Q0, P0, h=h, n_steps=40_000, save_every=20_000, threads=2)
+ens = ti.ensemble(prob, "C", Q0, P0, h=h, n_steps=200_000, save_every=100_000, threads=2)
 wave = ti.problems.wave(1024, rho=1.0, potential="u**4/4")
 x = wave.grid[0]
 w = ti.integrate(wave, "B", 0.1 * np.cos(x), 0.1 * np.sin(2 * x), h=0.01, n_steps=300, save_every=100)

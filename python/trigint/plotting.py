@@ -291,10 +291,46 @@ def _plot_methods(ds):
 
 
 def _plot_strata(ds):
-    from .experiments.strata_runner import plot_strata
-
-    _pyplot()
-    return plot_strata(ds, _caption)
+    """The strata figure: E_k(t) at the largest ε (bands), max_t E_k against k for every ε with
+    ε^{2k}, and the scan's largest rise over the bands against h with the tool's flags."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
+    ax = axes[0]
+    colors = plt.cm.viridis(np.linspace(0, 0.9, ds.k.size))
+    e_max = float(ds.epsilon.max())
+    for k in ds.k.values:
+        ax.plot(ds.t.values, ds.mode_energy.sel(epsilon=e_max, k=k).values, color=colors[k], lw=0.8, label=f"k = {k}")
+    ax.axhline(float(ds.floor.sel(epsilon=e_max)), color="grey", ls=":", lw=0.8)
+    ax.set_yscale("log")
+    ax.set_ylim(top=1e4)  # room for the legend above the bands
+    ax.set_xlabel("t")
+    ax.set_ylabel(f"E_k(t), ε = {e_max:g}")
+    ax.legend(fontsize=6, ncol=5, frameon=False, loc="upper center")
+    ax = axes[1]
+    k = ds.k.values
+    power = np.where(k == 0, 4, 2 * k).astype(float)  # the strata: ε^(2k), ε⁴ for mode 0
+    for i, e in enumerate(ds.epsilon.values):
+        (line,) = ax.plot(k, ds.mode_energy.isel(epsilon=i).max("t").values, "o-", ms=3, label=f"ε = {e:g}")
+        ax.plot(k, e**power, ls="--", lw=0.7, color=line.get_color())
+        ax.axhline(float(ds.floor.values[i]), color=line.get_color(), ls=":", lw=0.6)
+    ax.plot([], [], "k--", lw=0.7, label="ε^(2k) (ε⁴ at k = 0)")
+    ax.plot([], [], "k:", lw=0.6, label="round-off floor")
+    ax.set_yscale("log")
+    ax.set_xlabel("mode k")
+    ax.set_ylabel("max over t of E_k")
+    ax.legend(fontsize=7, frameon=False)
+    ax = axes[2]
+    h = ds.h.values
+    for v in h[ds.predicted_rise.values >= ds.attrs["break_factor"]]:
+        ax.axvline(v, color="tab:red", lw=0.5, alpha=0.35)
+    ax.plot(h, ds.largest_rise.values, color="black", lw=0.8)
+    ax.axhline(ds.attrs["break_factor"], color="grey", ls="--", lw=0.7)
+    ax.set_yscale("log")
+    ax.set_xlabel("step size h")
+    ax.set_ylabel(f"largest rise of a mode over its band, ε = {ds.attrs['scan_epsilon']:g}")
+    fig.suptitle(ds.attrs["title"], fontsize=10)
+    _caption(fig, ds)
+    return fig
 
 
 def _plot_wave(ds):

@@ -3,7 +3,7 @@ collocation and a symplectic trigonometric method. The mode energies stay in str
 E_k ~ ε^{2k} (E_0 ~ ε⁴) over long times (Gauckler, Hairer, Lubich, Weiss, Comm. PDE 37 (2012);
 for the discretization, under a numerical non-resonance condition on h: Gauckler, Weiss,
 DCDS-A 37 (2017)); a scan over h shows where they break, with the flags of
-:func:`trigint.resonance.strata_resonances`.
+:func:`trigint.resonance.strata_resonances`. The figure is drawn by ``trigint.plotting``.
 
 Mode energies: E_k = ω_k J_k = ½ Σ_{±k} (ω_k² |û_k|² + |v̂_k|²), û_k = (1/N) Σ_x u(x) e^{−ikx}
 (one term for k = 0 and the Nyquist mode): what trigint streams as the wave's per-mode
@@ -19,7 +19,7 @@ from .. import problems
 from ..ensemble import ensemble
 from ..integrate import integrate
 from ..resonance.strata import combinations
-from .claims import Claim
+from ._claim import Claim
 
 
 def band_exponents(k: np.ndarray) -> np.ndarray:
@@ -63,7 +63,7 @@ def run_strata(fig: dict) -> xr.Dataset:
     sol = integrate(prob, method, u0, np.zeros_like(u0), h=best, n_steps=n_best, save_every=max(1, n_best // 2000))
     best_energy = _mode_energies(sol.energies["action"])[:, :n_modes]
     k = np.arange(n_modes)
-    return xr.Dataset(
+    ds = xr.Dataset(
         {"mode_energy": (("epsilon", "t", "k"), np.stack(energies)), "floor": ("epsilon", np.array(floor)),
          "scan_max_energy": (("point", "k"), scan_max), "predicted_rise": ("point", rise),
          "predicted_mode": ("point", predicted), "top_energy": (("t_top", "k"), best_energy)},
@@ -78,6 +78,8 @@ def run_strata(fig: dict) -> xr.Dataset:
                "first_factor": float(fig.get("first_factor", 100.0)),
                "precision_min": float(fig.get("precision_min", 0.8))},
     )
+    ds["largest_rise"] = ("point", np.nanmax(scan_rise(ds), axis=1))  # what panel (c) plots
+    return ds
 
 
 def _mode_energies(action: xr.DataArray) -> np.ndarray:
@@ -185,47 +187,3 @@ def strata_claims(ds: xr.Dataset) -> list[Claim]:
               f"≥ {a['recall_min']:g}", "share",
               bool(recall >= a["recall_min"])),
     ]
-
-
-def plot_strata(ds: xr.Dataset, caption) -> object:
-    """Three panels: E_k(t) at the largest ε (bands), max_t E_k against k for every ε with
-    ε^{2k}, and the scan's largest rise over the bands against h with the tool's flags."""
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
-    ax = axes[0]
-    colors = plt.cm.viridis(np.linspace(0, 0.9, ds.k.size))
-    e_max = float(ds.epsilon.max())
-    for k in ds.k.values:
-        ax.plot(ds.t.values, ds.mode_energy.sel(epsilon=e_max, k=k).values, color=colors[k], lw=0.8, label=f"k = {k}")
-    ax.axhline(float(ds.floor.sel(epsilon=e_max)), color="grey", ls=":", lw=0.8)
-    ax.set_yscale("log")
-    ax.set_ylim(top=1e4)  # room for the legend above the bands
-    ax.set_xlabel("t")
-    ax.set_ylabel(f"E_k(t), ε = {e_max:g}")
-    ax.legend(fontsize=6, ncol=5, frameon=False, loc="upper center")
-    ax = axes[1]
-    k = ds.k.values
-    for i, e in enumerate(ds.epsilon.values):
-        line, = ax.plot(k, ds.mode_energy.isel(epsilon=i).max("t").values, "o-", ms=3, label=f"ε = {e:g}")
-        ax.plot(k, e ** band_exponents(k).astype(float), ls="--", lw=0.7, color=line.get_color())
-        ax.axhline(float(ds.floor.values[i]), color=line.get_color(), ls=":", lw=0.6)
-    ax.set_yscale("log")
-    ax.set_xlabel("mode k")
-    ax.plot([], [], "k--", lw=0.7, label="ε^(2k) (ε⁴ at k = 0)")
-    ax.plot([], [], "k:", lw=0.6, label="round-off floor")
-    ax.set_ylabel("max over t of E_k")
-    ax.legend(fontsize=7, frameon=False)
-    ax = axes[2]
-    rise = scan_rise(ds)
-    h = ds.h.values
-    for v in h[ds.predicted_rise.values >= ds.attrs["break_factor"]]:
-        ax.axvline(v, color="tab:red", lw=0.5, alpha=0.35)
-    ax.plot(h, np.nanmax(rise, axis=1), color="black", lw=0.8)
-    ax.axhline(ds.attrs["break_factor"], color="grey", ls="--", lw=0.7)
-    ax.set_yscale("log")
-    ax.set_xlabel("step size h")
-    ax.set_ylabel(f"largest rise of a mode over its band, ε = {ds.attrs['scan_epsilon']:g}")
-    fig.suptitle(ds.attrs["title"], fontsize=10)
-    caption(fig, ds)
-    return fig
