@@ -156,3 +156,32 @@ def test_no_core_source_file_over_600_lines():
              for p in CORE.rglob("*.rs")}
     assert sizes, "the core's sources were not found"
     assert {p: n for p, n in sizes.items() if n > 600} == {}
+
+
+def test_figure_kinds_are_registered_once_and_resolve():
+    """Each kind of figure: its spec keys in the schema and one row of trigint._figure_kinds
+    whose run, claims and plot functions import."""
+    from trigint._figure_kinds import KINDS, function
+    from trigint.experiments import schema
+
+    assert set(KINDS) == set(schema.KEYS) == set(schema.REQUIRED)
+    for kind in KINDS:
+        for role in ("run", "claims", "plot"):
+            assert callable(function(kind, role)), (kind, role)
+    import pytest
+
+    with pytest.raises(ValueError, match="figure kind 'nope' is not one of families"):
+        function("nope", "run")
+
+
+def test_no_string_switch_on_the_kind_of_step():
+    """The problem's stepper object (trigint._steppers) decides how steps are taken: no module
+    branches on ``path == "krylov"`` or the layout's path."""
+    import re
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[1] / "python" / "trigint"
+    switch = re.compile(r"""(\.path|get\("path"\)|\["path"\])\s*[!=]=\s*["']""")
+    found = [f"{f.name}:{i}" for f in package.rglob("*.py")
+             for i, line in enumerate(f.read_text(encoding="utf-8").splitlines(), 1) if switch.search(line)]
+    assert found == []

@@ -1,5 +1,5 @@
-"""Preparing a batch: broadcasting inputs, per-trajectory coefficients, and the chunk runner
-(a picklable module-level function, so executors and Dask workers can call it)."""
+"""Preparing a batch: broadcasting inputs, per-trajectory coefficients (from the problem's
+stepper), and the arguments every chunk takes (the chunk runner is ``_steppers.run_chunk``)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _check, _krylov, _native
+from . import _check
 from .methods import Method
 from .problem import OscillatoryProblem
 from .saveat import MAX_STEPS, check_steps
@@ -111,70 +111,13 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
-    if problem.path == "krylov":  # no frequencies: the core evaluates the method at the Ritz values
-        return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, methods={})
-    distinct, which = np.unique(h_arr, return_inverse=True)
-    try:
-        table = _rows_for_step_sizes(method, problem.omega, distinct)
-    except ValueError:
-        # Say which trajectory's step size fails, with the method's own message.
-        for t, ht in enumerate(h_arr):
-            try:
-                method.coefficients(float(ht), problem.omega)
-            except ValueError as exc:
-                raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
-        raise
-    methods = {k: table[k][which] for k in _native.METHOD_ROWS}
+    methods = problem.stepper.coefficient_rows(problem, method, h_arr)
     return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, methods=methods)
 
 
-def _rows_for_step_sizes(method: Method, omega: np.ndarray, h: np.ndarray) -> dict:
-    """The core's rows for every step size in `h` (shape (D,)), each of shape (D, n): one
-    elementwise evaluation over all (step size, coordinate) pairs."""
-    d, n = h.size, omega.size
-    co = method.pointwise(np.repeat(h, n), np.tile(omega, d))
-    rows = _native.method_rows(co, np.tile(omega > 0, d))
-    return {k: v.reshape(d, n) for k, v in rows.items()}
-
-
-def core_arguments(problem: OscillatoryProblem, method: Method) -> tuple[object, dict, _native.CoreLayout | None]:
-    """What every chunk of a problem's batch needs: the potential built in the core's
-    coordinates (once per problem; it pickles as its description), the layout's description,
-    and the layout that maps states to and from them (None if the core's coordinates are the
-    user's). On the Krylov path the description is the sparse matrix's, with the method."""
-    if problem.path == "krylov":
-        spec = {**_krylov.stiffness_spec(problem), "method": method}
-        return _native.built_potential(problem.potential, problem.dim), spec, None
-    lay = _native.core_layout(problem)
-    order = None if lay.identity and lay.basis is None and lay.transform is None else lay
-    return _native.problem_potential(problem, lay), lay.spec, order
-
-
-def run_chunk(potential_spec, layout_spec: dict, order: _native.CoreLayout | None, rows: dict,
-              save_every: int | None, track: bool, threads: int | None = None,
-              form: str = "two-step"):
-    """Runs one chunk of trajectories in the core. Module-level and free of local state, so
-    that it can be sent to executors and Dask workers. States come back in the user's
-    coordinates."""
-
-    if layout_spec.get("path") == "krylov":
-        return _krylov.run(potential_spec, layout_spec, layout_spec["method"], rows["h"], rows["q0"], rows["p0"],
-                           rows["n_steps"], save_every, track, threads)
-
-    def state_to_core(x):
-        return np.ascontiguousarray(x if order is None else order.to_core(x))
-
-    def rows_to_core(x):
-        return np.ascontiguousarray(x if order is None else order.rows_to_core(x))
-
-    methods = {k: rows_to_core(np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
-    methods["h"] = np.ascontiguousarray(rows["h"], dtype=float)
-    out = _native.integrate_batch(
-        potential_spec, layout_spec, methods, state_to_core(rows["q0"]), state_to_core(rows["p0"]),
-        rows["n_steps"], save_every, form, track, threads,
-    )
-    if order is not None and out.samples is not None:
-        for s in out.samples:
-            s["q"] = order.to_user(s["q"])
-            s["p"] = order.to_user(s["p"])
-    return out
+def core_arguments(problem: OscillatoryProblem, method: Method) -> tuple:
+    """What every chunk of a problem's batch needs, first of all its stepper
+    (``trigint._steppers``): then the potential built in the core's coordinates (once per problem;
+    it pickles as its description), the layout's description, and the layout that maps states to
+    and from them (None if the core's coordinates are the user's)."""
+    return (problem.stepper, *problem.stepper.core_arguments(problem, method))

@@ -97,15 +97,8 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         )
     if (method is None) != (h is None):
         raise ValueError("method, h: give both (for the modified oscillatory energy) or neither")
-    if problem.path == "krylov":
-        if method is not None:
-            raise ValueError("method, h: the modified oscillatory energy needs the frequencies, which the Krylov "
-                             "path does not compute; leave them out")
-        from ._krylov import energies as krylov_energies
-
-        rows = np.array([krylov_energies(problem.stiffness, problem.potential, a, b)
-                         for a, b in zip(np.atleast_2d(q), np.atleast_2d(p), strict=True)])
-        data = {"total": rows[:, 0], "oscillatory": rows[:, 1], "slow": rows[:, 2], "oscillatory_1": rows[:, 1]}
+    data = problem.stepper.whole_state_energies(problem, q, p, method, h)
+    if data is not None:  # computed by the stepper (no frequencies on the Krylov path)
         if q.ndim == 1:
             return xr.Dataset({k: ((), v[0]) for k, v in data.items()})
         return xr.Dataset({k: ("sample", v) for k, v in data.items()})

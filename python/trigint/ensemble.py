@@ -19,10 +19,11 @@ import numpy as np
 import xarray as xr
 
 from . import _check, _outputs, _progress
-from ._batch import core_arguments, prepare, run_chunk
+from ._batch import core_arguments, prepare
 from ._method_names import resolve_method
 from ._native import METHOD_ROWS
 from ._outputs import STATUS_NAMES
+from ._steppers import run_chunk
 from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
 from .integrate import MAX_SAMPLE_BYTES, sample_bytes
@@ -125,7 +126,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     spans = [slice(a, min(a + chunk, count)) for a in range(0, count, chunk)]
     names = energy_names(problem.n_blocks, problem.n_axes)
     args = core_arguments(problem, method)
-    _check_sendable(client, problem.potential, args[0].spec)
+    _check_sendable(client, problem.potential, args[1].spec)  # args: stepper, potential, layout, map
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
                   threads=None if threads is None else int(min(threads, count)))
@@ -418,12 +419,7 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
     if store is None:
         return None
     shapes = _outputs.shapes(_sizes(problem, batch, names, save_every), save_every is not None)
-    if problem.path == "krylov":  # the sparse matrix by its arrays, and the stopping rule
-        a = problem.stiffness
-        matrix = {"stiffness_indptr": a.indptr, "stiffness_indices": a.indices, "stiffness_data": a.data,
-                  "krylov_tolerance": problem.krylov_tolerance}
-    else:
-        matrix = {} if problem.stiffness is None else {"stiffness": problem.stiffness}
+    matrix = problem.stepper.store_matrix(problem)
     coefficients = np.stack([batch.methods[k] for k in METHOD_ROWS]) if batch.methods else None
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import _check, _native
+from . import _check
 from . import _progress as progress_report
 from ._method_names import resolve_method
 from .energies import energy_names
@@ -143,21 +143,21 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
             f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
             "increase save_every"
         )
-    if problem.path == "krylov":
-        return _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track_energies, progress)
-    co = _coefficients(problem, method, h, form)
+    stepper = problem.stepper  # the recursion, or the Krylov step (trigint._steppers)
+    co = _coefficients(problem, method, h, form) if stepper.has_spectrum else None
     # A problem with its own resonance theory (a wave equation) warns after the run, knowing which
     # modes carry energy; the others by the ODE condition (3.2), before it.
     own_warning = getattr(problem, "warn_resonances", None)
-    if own_warning is None:
+    if co is not None and own_warning is None:
         _warn_near_resonance(co, method)
-    python_potential = isinstance(problem.potential, PythonPotential)
-    every = PROGRESS_EVERY_PYTHON if python_potential else PROGRESS_EVERY_NATIVE
-    callback, close = _progress(progress, n_steps, python_potential)
+    # a step that calls Python or runs Lanczos iterations is slow: the progress bar shows sooner
+    slow = isinstance(problem.potential, PythonPotential) or not stepper.has_spectrum
+    every = PROGRESS_EVERY_PYTHON if slow else PROGRESS_EVERY_NATIVE
+    callback, close = _progress(progress, n_steps, slow)
     out = None
     try:
-        out = _native.integrate(problem, co, q0, p0, n_steps, save_every, form,
-                                bool(track_energies), every, callback)
+        out = stepper.run_one(problem, method, co, h, q0, p0, n_steps, save_every, form, bool(track_energies),
+                              every, callback)
     finally:
         close(None if out is None else int(out.steps_done[0]))
     if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
@@ -206,22 +206,6 @@ def _warn_near_resonance(co, method: Method) -> None:
         f"drift or blow up (method {method.name!r}, h = {co.h:.6g}). Choose h with {name}[{j}] away from "
         "multiples of pi; trigint.resonance.analyze(h, omega) checks a step size",
         RuntimeWarning, stacklevel=3)
-
-
-def _krylov_solution(problem, method, h, n_steps, q0, p0, save_every, track, progress) -> Solution:
-    """A stiffness matrix on the Krylov path: the one-step form with matrix functions by Lanczos
-    (see :mod:`trigint._krylov`), in the core; energies at the samples, and every step if tracked."""
-    from . import _krylov
-
-    callback, close = _progress(progress, n_steps, True)
-    out = None
-    try:
-        out = _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback)
-    finally:
-        close(None if out is None else int(out.steps_done[0]))
-    if out.interrupted_by is not None and "KeyboardInterrupt" not in out.interrupted_by:
-        raise RuntimeError(f"progress callback failed: {out.interrupted_by}")
-    return _solution(problem, method, h, n_steps, out)
 
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:

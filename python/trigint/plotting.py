@@ -134,9 +134,9 @@ def figure(ds):
     >>> type(fig).__name__
     'Figure'
     """
-    kind = ds.attrs["kind"]
-    return {"families": _plot_families, "perturbed": _plot_perturbed, "scan": _plot_scan,
-            "methods": _plot_methods, "wave": _plot_wave, "strata": _plot_strata}[kind](ds)
+    from ._figure_kinds import function
+
+    return function(ds.attrs["kind"], "plot")(ds)
 
 
 #: the page width (inches) at which the figures' fonts have their nominal size: a figure

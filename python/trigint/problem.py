@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _check, _stiffness
+from ._steppers import KRYLOV, RECURSION
 from ._stiffness import Frequencies
 from .potentials import Potential
 
@@ -97,6 +98,7 @@ class OscillatoryProblem:
         self.coordinate_map = None
         self.frequencies_found = None
         self.path = "diagonal"
+        self.stepper = RECURSION  # how the steps are taken (trigint._steppers)
         if stiffness is not None:
             if blocks is not None:
                 raise ValueError("blocks: not allowed with stiffness=; the blocks are A's eigenspaces")
@@ -114,6 +116,7 @@ class OscillatoryProblem:
                 _check_potential(potential, self.stiffness.shape[0])
                 self.krylov_tolerance = krylov_tolerance
                 self.path, self.potential, self._n = "krylov", potential, self.stiffness.shape[0]
+                self.stepper = KRYLOV
                 self.omega = self.blocks = None
                 return
             self.path = "dense"
@@ -206,7 +209,7 @@ class OscillatoryProblem:
         what : str
             The name of what needs the spectrum, for the message.
         """
-        if self.path == "krylov":
+        if not self.stepper.has_spectrum:
             raise ValueError(f"{what}: not available for a stiffness matrix on the Krylov path (n = {self.dim}), "
                              "whose eigenvalues and eigenvectors are never computed; use trigint.integrate, "
                              "or path='dense' for n up to 5000")
@@ -241,7 +244,7 @@ class OscillatoryProblem:
         return float(1.0 / fast.min()) if fast.size else float("inf")
 
     def __repr__(self) -> str:
-        if self.path == "krylov":
+        if not self.stepper.has_spectrum:
             return (f"OscillatoryProblem(n={self.dim}, sparse stiffness matrix with {self.stiffness.nnz} entries, "
                     f"Krylov path (tolerance {self.krylov_tolerance:g}), potential={self.potential!r})")
         if self.stiffness is not None:

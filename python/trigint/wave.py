@@ -22,6 +22,7 @@ import numpy as np
 import xarray as xr
 
 from . import _check, _core, _tape
+from ._steppers import RECURSION
 from .potentials import Potential, PythonPotential
 from .problem import OscillatoryProblem
 
@@ -157,6 +158,7 @@ class WaveProblem(OscillatoryProblem):
         self.coordinate_map = self.fourier_map
         self.stiffness = self.basis = self.frequencies_found = None
         self.path = "diagonal"
+        self.stepper = RECURSION
         self.omega = omega[order]
         self.blocks = blocks_canonical[order]
         self._n = self.omega.size

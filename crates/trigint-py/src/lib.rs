@@ -20,7 +20,7 @@ use trigint_core::{
     TrajectoryOutput, CHANNELS,
 };
 
-use potential::{to_2d, values_and_forces, with_potential, NativePotential};
+use potential::{to_2d, with_potential, NativePotential};
 use result::RunResult;
 
 /// Core errors become Python exceptions here and nowhere else.
@@ -190,22 +190,6 @@ fn integrate_batch<'py>(
 pub(crate) type ValuesAndForces<'py> =
     (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
 
-/// evaluate(potential, x) -> (U at each row of x (m, n), −∇U at each row)
-#[pyfunction]
-fn evaluate<'py>(
-    py: Python<'py>,
-    potential: &Bound<'py, PyAny>,
-    x: PyReadonlyArray2<f64>,
-) -> PyResult<ValuesAndForces<'py>> {
-    let given = handle::given(potential)?;
-    let pot = given.get();
-    let (m, n) = (x.shape()[0], x.shape()[1]);
-    let data: Vec<f64> = x.as_array().iter().copied().collect();
-    let r = py.detach(|| with_potential!(pot, |p| values_and_forces(p, &data, m, n)));
-    let (v, f) = r.map_err(|e| to_py(e, pot))?;
-    Ok((PyArray1::from_vec(py, v), to_2d(py, f, m, n)?))
-}
-
 /// change_basis(x, m) -> x · m for row-major x (rows, k) and m (k, n), each row summed in a
 /// fixed order: the same bits for a state alone or in a batch
 #[pyfunction]
@@ -226,12 +210,6 @@ fn change_basis<'py>(
     let mut y = vec![0.0; rows * n];
     py.detach(|| trigint_core::basis::rows_times(&xs, &ms, k, n, &mut y));
     to_2d(py, y, rows, n)
-}
-
-/// instructions(potential) -> number of instructions of a compiled program's force code
-#[pyfunction]
-fn instructions(potential: &Bound<'_, PyDict>) -> PyResult<Option<usize>> {
-    Ok(NativePotential::from_spec(potential)?.instructions())
 }
 
 /// channels(n_blocks, n_axes=0) -> the energy channel names in output order (n_axes: the
@@ -283,12 +261,10 @@ fn kernel_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
-    m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<RunResult>()?;
     m.add_class::<grid::FourierGrid>()?;
-    m.add_function(wrap_pyfunction!(instructions, m)?)?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
     m.add_function(wrap_pyfunction!(kernel_config, m)?)?;
     m.add_function(wrap_pyfunction!(krylov::integrate_krylov, m)?)?;

@@ -29,8 +29,9 @@ def measure(ds: xr.Dataset) -> list[Claim]:
     >>> all(c.passed for c in experiments.measure(ds))
     True
     """
-    return {"families": _families, "perturbed": _perturbed, "scan": _scan, "methods": _methods,
-            "wave": _wave, "strata": _strata}[ds.attrs["kind"]](ds)
+    from .._figure_kinds import function
+
+    return function(ds.attrs["kind"], "claims")(ds)
 
 
 def _slope_through_origin(t: np.ndarray, y: np.ndarray) -> float:
@@ -251,13 +252,6 @@ def _wave(ds: xr.Dataset) -> list[Claim]:
               "flagged: " + ("yes" if near[top] else "no"), bool(near[top] and factor >= a["peak_factor"])),
         *_wave_actions(ds, near),
     ]
-
-
-def _strata(ds: xr.Dataset) -> list[Claim]:
-    """The energy strata's claims (``strata_runner.strata_claims``)."""
-    from .strata_runner import strata_claims
-
-    return strata_claims(ds)
 
 
 def _wave_actions(ds: xr.Dataset, near: np.ndarray) -> list[Claim]:

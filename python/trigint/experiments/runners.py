@@ -36,13 +36,10 @@ def run(spec: dict) -> xr.Dataset:
     >>> ds.attrs["figure"], ds.attrs["kind"]
     ('fig5', 'methods')
     """
-    kind = spec["figure"]["kind"]
-    from .strata_runner import run_strata
-    from .wave_runner import run_wave
+    from .._figure_kinds import function
 
-    runners = {"families": run_families, "perturbed": run_perturbed, "scan": run_scan, "methods": run_methods,
-               "wave": run_wave, "strata": run_strata}
-    ds = runners[kind](spec["figure"])
+    kind = spec["figure"]["kind"]
+    ds = function(kind, "run")(spec["figure"])
     ds.attrs.update(figure=spec["figure"]["id"], kind=kind, title=spec["figure"].get("title", ""),
                     caption=" ".join(spec["figure"].get("caption", "").split()), quick=int(spec.get("quick", False)))
     return ds

@@ -12,6 +12,7 @@ import difflib
 import math
 from dataclasses import dataclass, field
 
+from .._figure_kinds import KINDS as FIGURE_KINDS
 from .numbers import number
 
 
@@ -148,7 +149,7 @@ POSITIVE = Float(positive=True)
 NONNEG = Float(low=0.0)
 
 COMMON = {
-    "id": FileName(), "kind": Str(("families", "perturbed", "scan", "methods", "wave", "strata")), "title": Str(),
+    "id": FileName(), "kind": Str(tuple(FIGURE_KINDS)), "title": Str(),
     "caption": Str(),
     "seed": Int(0, 10**6), "energy": Str(ENERGIES), "samples": Int(2, 10**7),
 }

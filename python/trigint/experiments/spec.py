@@ -15,7 +15,6 @@ from pathlib import Path
 from .schema import SpecError, validate
 
 FIGURES = ("fig1", "fig2", "fig3", "fig4", "fig5", "wave1", "strata")
-KINDS = ("families", "perturbed", "scan", "methods", "wave")
 
 def load(name_or_path, quick: bool = False) -> dict:
     """The spec of a paper figure ("fig1" … "fig5") or of a TOML file, with `[quick]` applied.

@@ -1,0 +1,136 @@
+"""How a problem's steps are taken, as an object the problem carries (``problem.stepper``): the
+two-step recursion on the problem's frequencies (every instruction-set copy and lane loop of
+the core), or the Krylov step of a large sparse stiffness matrix, whose frequencies are never
+computed. ``integrate``, ``ensemble``, ``energies`` and the stores ask the stepper; none of them
+branches on the kind of problem.
+
+A new kind of step is a class with these methods and a problem that carries it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _krylov, _native
+
+
+class Recursion:
+    """The two-step recursion (2.5) with the method's coefficients at the problem's frequencies."""
+
+    #: the frequencies and eigenvectors exist (modified energies, resonance checks, per-block energies)
+    has_spectrum = True
+
+    def coefficient_rows(self, problem, method, h: np.ndarray) -> dict:
+        """The core's coefficient rows for trajectories with step sizes `h` (shape (B,)): each
+        distinct step size evaluated once, elementwise over (step size, coordinate)."""
+        distinct, which = np.unique(h, return_inverse=True)
+        try:
+            d, n = distinct.size, problem.omega.size
+            co = method.pointwise(np.repeat(distinct, n), np.tile(problem.omega, d))
+            rows = _native.method_rows(co, np.tile(problem.omega > 0, d))
+            table = {k: v.reshape(d, n) for k, v in rows.items()}
+        except ValueError:
+            # Say which trajectory's step size fails, with the method's own message.
+            for t, ht in enumerate(h):
+                try:
+                    method.coefficients(float(ht), problem.omega)
+                except ValueError as exc:
+                    raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
+            raise
+        return {k: table[k][which] for k in _native.METHOD_ROWS}
+
+    def core_arguments(self, problem, method) -> tuple:
+        """What every chunk of an ensemble needs: the potential built in the core's coordinates,
+        the layout's description, and the map back to the user's coordinates (None if the
+        core's coordinates are the user's)."""
+        lay = _native.core_layout(problem)
+        order = None if lay.identity and lay.basis is None and lay.transform is None else lay
+        return _native.problem_potential(problem, lay), lay.spec, order
+
+    def run_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, save_every, track: bool,
+                  threads, form: str):
+        """Runs one chunk of trajectories in the core; states back in the user's coordinates."""
+
+        def state_to_core(x):
+            return np.ascontiguousarray(x if order is None else order.to_core(x))
+
+        def rows_to_core(x):
+            return np.ascontiguousarray(x if order is None else order.rows_to_core(x))
+
+        methods = {k: rows_to_core(np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
+        methods["h"] = np.ascontiguousarray(rows["h"], dtype=float)
+        out = _native.integrate_batch(
+            potential_spec, layout_spec, methods, state_to_core(rows["q0"]), state_to_core(rows["p0"]),
+            rows["n_steps"], save_every, form, track, threads,
+        )
+        if order is not None and out.samples is not None:
+            for s in out.samples:
+                s["q"] = order.to_user(s["q"])
+                s["p"] = order.to_user(s["p"])
+        return out
+
+    def run_one(self, problem, method, co, h: float, q0, p0, n_steps: int, save_every: int, form: str,
+                track: bool, every: int, callback):
+        """One trajectory in the core, with the coefficients `co` evaluated by ``integrate``."""
+        return _native.integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, callback)
+
+    def store_matrix(self, problem) -> dict:
+        """What identifies the stiffness in a store's fingerprint."""
+        return {} if problem.stiffness is None else {"stiffness": problem.stiffness}
+
+    def whole_state_energies(self, problem, q, p, method, h):
+        """None: the energies come from the core's channels at the frequencies."""
+        return None
+
+
+class Krylov:
+    """The one-step form with the matrix functions of h√A applied by the Lanczos method in the
+    core (:mod:`trigint._krylov`): no frequencies, no eigenvectors."""
+
+    has_spectrum = False
+
+    def coefficient_rows(self, problem, method, h: np.ndarray) -> dict:
+        """None needed: the core evaluates the method at the Ritz values."""
+        return {}
+
+    def core_arguments(self, problem, method) -> tuple:
+        """The potential built once, the sparse matrix by its arrays with the method, no map."""
+        spec = {**_krylov.stiffness_spec(problem), "method": method}
+        return _native.built_potential(problem.potential, problem.dim), spec, None
+
+    def run_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, save_every, track: bool,
+                  threads, form: str):
+        """Runs one chunk of trajectories on the Krylov path in the core."""
+        return _krylov.run(potential_spec, layout_spec, layout_spec["method"], rows["h"], rows["q0"], rows["p0"],
+                           rows["n_steps"], save_every, track, threads)
+
+    def run_one(self, problem, method, co, h: float, q0, p0, n_steps: int, save_every: int, form: str,
+                track: bool, every: int, callback):
+        """One trajectory on the Krylov path (the one-step form whatever `form` says)."""
+        return _krylov.integrate(problem, method, q0, p0, h, n_steps, save_every, track, callback)
+
+    def store_matrix(self, problem) -> dict:
+        """The sparse matrix by its arrays, and the stopping rule."""
+        a = problem.stiffness
+        return {"stiffness_indptr": a.indptr, "stiffness_indices": a.indices, "stiffness_data": a.data,
+                "krylov_tolerance": problem.krylov_tolerance}
+
+    def whole_state_energies(self, problem, q, p, method, h) -> dict:
+        """H, H_ω and H_slow of each row of q, p (no modified energy: it needs the frequencies)."""
+        if method is not None:
+            raise ValueError("method, h: the modified oscillatory energy needs the frequencies, which the Krylov "
+                             "path does not compute; leave them out")
+        rows = np.array([_krylov.energies(problem.stiffness, problem.potential, a, b)
+                         for a, b in zip(np.atleast_2d(q), np.atleast_2d(p), strict=True)])
+        return {"total": rows[:, 0], "oscillatory": rows[:, 1], "slow": rows[:, 2], "oscillatory_1": rows[:, 1]}
+
+
+RECURSION = Recursion()
+KRYLOV = Krylov()
+
+
+def run_chunk(stepper, potential_spec, layout_spec: dict, order, rows: dict, save_every: int | None, track: bool,
+              threads: int | None = None, form: str = "two-step"):
+    """Runs one chunk of an ensemble with `stepper`. Module-level and free of local state, so that
+    it can be sent to executors and Dask workers. States come back in the user's coordinates."""
+    return stepper.run_chunk(potential_spec, layout_spec, order, rows, save_every, track, threads, form)
