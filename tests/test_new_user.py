@@ -97,6 +97,12 @@ def test_an_ordinary_wave_run_is_silent_and_an_energy_carrying_resonance_warns()
     h = np.pi / np.sqrt(10) - 1e-4  # h*omega_3 near pi, and mode 3 carries the energy
     with pytest.warns(RuntimeWarning, match=r"mode j = \(3,\).*energy_resonances"):
         ti.integrate(prob, "B", 0.1 * np.cos(3 * x), 0 * x, h=h, n_steps=50, save_every=50)
+    # the same step size on the linear equation (V = u²/2): no mode drives another, no warning
+    linear = ti.problems.wave(1024, rho=1.0, potential="u**2/2")
+    assert linear.linear and not prob.linear
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ti.integrate(linear, "B", 0.1 * np.cos(3 * x), 0 * x, h=h, n_steps=50, save_every=50)
 
 
 def test_energy_resonances_rank_the_combinations_driven_by_energetic_modes():

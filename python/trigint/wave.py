@@ -132,6 +132,9 @@ class WaveProblem(OscillatoryProblem):
         ω_j of each block.
     action_modes : array of int
         The blocks (0-based) whose actions ``sol.energies["action"]`` holds.
+    linear : bool
+        Whether V is at most quadratic in u (V' linear): no mode drives another, and runs do not
+        warn of resonant combinations.
     """
 
     def __init__(self, shape: tuple[int, ...], rho: float, potential, params: Mapping | None = None,
@@ -185,6 +188,8 @@ class WaveProblem(OscillatoryProblem):
         params = _tape.parameters(params)
         expr = _tape.parse(potential, [str(var), *params], "potential")
         tape = _tape.tape(expr, [var], params, "potential", "variable")
+        # V at most quadratic in u: V'(u) is linear, no mode drives another, no combination resonates
+        self.linear = bool(expr.is_polynomial(var)) and _degree(expr, var) <= 2
         return WavePotential(self.shape, tape, order, str(expr))
 
     def _momentum_form(self) -> dict:
@@ -302,6 +307,8 @@ class WaveProblem(OscillatoryProblem):
 
         from .resonance.wave import energy_resonances
 
+        if getattr(self, "linear", False):  # V'(u) linear: no mode drives another, nothing to warn of
+            return
         initial = [sol.initial_energies[f"oscillatory_{b + 1}"] for b in range(len(self.modes))]
         tolerance = min(float(np.sqrt(sol.h)), 0.1)
         found = energy_resonances(self, sol.h, initial, tolerance=tolerance)
@@ -441,3 +448,10 @@ def _shape(n) -> tuple[int, ...]:
             raise ValueError(f"n: grid points per axis must be even (the Nyquist mode is then real), got {k}")
         out.append(k)
     return tuple(out)
+
+
+def _degree(expr, var) -> int:
+    """The degree of a polynomial V in u (0 for a constant)."""
+    import sympy as sp
+
+    return int(sp.Poly(expr, var).degree()) if expr.has(var) else 0
