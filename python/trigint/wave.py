@@ -15,6 +15,7 @@ self-conjugate mode has its own I_j), with û = FFT(u)/N.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping
 
@@ -309,7 +310,9 @@ class WaveProblem(OscillatoryProblem):
 
         if getattr(self, "linear", False):  # V'(u) linear: no mode drives another, nothing to warn of
             return
-        initial = [sol.initial_energies[f"oscillatory_{b + 1}"] for b in range(len(self.modes))]
+        channels = sol.initial_energies
+        first = list(channels).index("oscillatory_1")  # the per-mode channels, in block order
+        initial = np.fromiter(itertools.islice(channels.values(), first, first + len(self.modes)), dtype=float)
         tolerance = min(float(np.sqrt(sol.h)), 0.1)
         found = energy_resonances(self, sol.h, initial, tolerance=tolerance)
         if not found:

@@ -22,7 +22,7 @@ import itertools
 import numpy as np
 
 from .._check import real, step_size
-from .wave import WaveResonance
+from .wave import WaveResonance, mode_index
 
 #: relative energies below this are round-off (double precision: about 1e-32 of the total for the
 #: energies of a state known to 1e-16 relative); a stratum below it cannot be seen
@@ -67,7 +67,7 @@ def predicted_strata(problem, mode_energies, degree: int = 2) -> np.ndarray:
     if degree < 2:
         raise ValueError(f"degree: the nonlinearity's degree must be at least 2, got {degree}")
     amplitude = np.sqrt(energies)
-    index, shape, modes = _mode_index(problem), np.asarray(problem.shape), problem.modes
+    index, shape, modes = mode_index(problem), np.asarray(problem.shape), problem.modes
     for _ in range(4 * len(modes)):  # each pass lengthens the products by one factor
         excited = np.flatnonzero(amplitude > 0)
         new = amplitude.copy()
@@ -261,7 +261,7 @@ def combinations(problem, mode_energies, *, order: int = 4, floor: float = ROUND
     amplitude = np.sqrt(strata)
     seen = np.flatnonzero(strata >= floor * total) if total > 0 else np.array([], dtype=int)
     omega, modes, shape = problem.mode_frequencies, problem.modes, np.asarray(problem.shape)
-    index = _mode_index(problem)
+    index = mode_index(problem)
     in_view = set(int(b) for b in seen)
     target, drivers, signs, freq, ratio = [], [], [], [], []
     for r in range(2, order + 1):
@@ -296,10 +296,6 @@ def _energies(problem, mode_energies) -> np.ndarray:
 
 def _wavevector(m) -> tuple:
     return tuple(int(c) for c in m)
-
-
-def _mode_index(problem) -> dict:
-    return {_wavevector(m): b for b, m in enumerate(problem.modes)}
 
 
 def _block(index: dict, j, shape: np.ndarray):
