@@ -71,6 +71,11 @@ def test_sizes_no_machine_can_hold_are_refused_before_anything_is_allocated(make
         make()
 
 
+def test_a_dense_stiffness_no_machine_can_hold_is_refused_with_its_size():
+    with pytest.raises(ValueError, match=r"m: a dense 20000000 x 20000000 matrix would need 2.84 PiB"):
+        ti.problems.fpu_stiffness(10**7, 50.0)
+
+
 def test_a_misspelt_method_name_gets_the_closest_valid_one():
     prob, q0, p0, h = fpu_case()
     with pytest.raises(ValueError, match="did you mean 'stormer-verlet'"):

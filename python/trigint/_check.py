@@ -258,6 +258,20 @@ def coordinates(n: int, name: str, what: str = "coordinates") -> int:
     return int(n)
 
 
+def dense_matrix(n: int, name: str) -> int:
+    """The side n of a dense n × n matrix that fits in memory, refused before it is allocated.
+
+    >>> dense_matrix(2 * 10**6, "m")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ValueError: m: a dense 2000000 x 2000000 matrix would need 29.1 TiB, more than this machine's ...
+    """
+    need, have = int(n) ** 2 * 8, physical_memory()
+    if need > have:
+        raise ValueError(f"{name}: a dense {int(n)} x {int(n)} matrix would need {_bytes(need)}, more than this "
+                         f"machine's {_bytes(have)} memory")
+    return int(n)
+
+
 def _bytes(n: int) -> str:
     """A byte count in the largest binary unit that leaves a number >= 1.
 

@@ -77,6 +77,8 @@ def fpu_stiffness(m: int, omega: float) -> np.ndarray:
     -------
     array of shape (2m, 2m)
     """
+    m = _check.integer(m, "m", low=1)
+    _check.dense_matrix(2 * m, "m")
     a = np.zeros((2 * m, 2 * m))
     for i in range(m):
         a[2 * i:2 * i + 2, 2 * i:2 * i + 2] = 0.5 * omega**2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
