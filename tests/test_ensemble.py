@@ -107,11 +107,17 @@ SWEEP_SCRIPT = textwrap.dedent("""
 """)
 
 
+#: the sweep's t_end: 12 chunks of 2 trajectories, each chunk long enough (about 30 ms on an AVX-512
+#: EPYC; at t_end = 3000 it was 2 ms) that the rest cannot all finish between a poll of the store
+#: and the signal
+SWEEP_T_END = "60000"
+
+
 def test_sigkill_loses_nothing_written(tmp_path):
     script = tmp_path / "sweep.py"
     script.write_text(SWEEP_SCRIPT)
     store = tmp_path / "killed.zarr"
-    proc = subprocess.Popen([sys.executable, str(script), str(store), "3000", str(tmp_path / "a.npy")])
+    proc = subprocess.Popen([sys.executable, str(script), str(store), SWEEP_T_END, str(tmp_path / "a.npy")])
     import zarr
 
     deadline = time.time() + 120
@@ -132,8 +138,8 @@ def test_sigkill_loses_nothing_written(tmp_path):
     assert 2 <= finished.sum() < finished.size
     kept = np.asarray(written["max_deviation"][:])[np.repeat(finished, 2)]
     # Rerun with the same store: only the missing chunks are computed; the result equals a fresh run.
-    subprocess.run([sys.executable, str(script), str(store), "3000", str(tmp_path / "b.npy")], check=True)
-    subprocess.run([sys.executable, str(script), str(tmp_path / "fresh.zarr"), "3000", str(tmp_path / "c.npy")],
+    subprocess.run([sys.executable, str(script), str(store), SWEEP_T_END, str(tmp_path / "b.npy")], check=True)
+    subprocess.run([sys.executable, str(script), str(tmp_path / "fresh.zarr"), SWEEP_T_END, str(tmp_path / "c.npy")],
                    check=True)
     b, c = np.load(tmp_path / "b.npy"), np.load(tmp_path / "c.npy")
     assert np.array_equal(b, c)
@@ -144,7 +150,7 @@ def test_ctrl_c_stops_and_keeps_finished_chunks(tmp_path):
     script = tmp_path / "sweep.py"
     script.write_text(with_default_sigint(SWEEP_SCRIPT + "print('statuses', sorted(set(ds.status.values)))\n"))
     store = tmp_path / "interrupted.zarr"
-    proc = subprocess.Popen([sys.executable, str(script), str(store), "3000", str(tmp_path / "a.npy")],
+    proc = subprocess.Popen([sys.executable, str(script), str(store), SWEEP_T_END, str(tmp_path / "a.npy")],
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     import zarr
 
