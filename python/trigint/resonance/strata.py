@@ -21,8 +21,8 @@ import itertools
 
 import numpy as np
 
-from .._check import real, step_size
-from .wave import WaveResonance, mode_index
+from .._check import step_size
+from .wave import WaveResonance, check_tolerance, mode_index
 
 #: relative energies below this are round-off (double precision: about 1e-32 of the total for the
 #: energies of a state known to 1e-16 relative); a stratum below it cannot be seen
@@ -142,9 +142,7 @@ def strata_resonances(problem, h: float, mode_energies, method="B", *, order: in
     ((3,), ((3,), (1,), (2,)), 0.0002)
     """
     h = step_size(h)
-    tolerance = real(tolerance, "tolerance", positive=True)
-    if tolerance >= 1:
-        raise ValueError(f"tolerance: must be in (0, 1), got {tolerance}")
+    tolerance = check_tolerance(tolerance)
     table = combinations(problem, mode_energies, order=order, floor=floor, degree=degree)
     return table.resonances(h, method, tolerance)
 

@@ -98,9 +98,7 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     (((3,),), 3e-05)
     """
     h = step_size(h)
-    tolerance = real(tolerance, "tolerance", positive=True)
-    if tolerance >= 1:
-        raise ValueError(f"tolerance: must be in (0, 1), got {tolerance}")
+    tolerance = check_tolerance(tolerance)
     modes, omega = problem.modes, problem.mode_frequencies
     found: list[WaveResonance] = []
     alone = np.abs(np.sin(h * omega))
@@ -112,6 +110,14 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     # one entry per combination (the loops meet each triple from both of its summands)
     unique = {_combination(r): r for r in reversed(found)}
     return sorted(unique.values(), key=lambda r: (r.distance, r.modes))
+
+
+def check_tolerance(tolerance) -> float:
+    """A threshold on a distance |sin(…)|: a number in (0, 1)."""
+    tolerance = real(tolerance, "tolerance", positive=True)
+    if tolerance >= 1:
+        raise ValueError(f"tolerance: must be in (0, 1), got {tolerance}")
+    return tolerance
 
 
 def _combination(r: WaveResonance) -> tuple:
