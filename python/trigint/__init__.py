@@ -20,6 +20,7 @@ from ._store import StoreError
 from .energies import energies
 from .ensemble import ensemble, perturb, scan
 from .integrate import integrate
+from .lyapunov import LyapunovResult, lyapunov, tangent_map
 from .methods import (
     IMEX,
     AlphaMethod,
@@ -47,6 +48,7 @@ __version__ = "0.1.0"
 __all__ = [
     "IMEX",
     "AlphaMethod",
+    "LyapunovResult",
     "ChainPotential",
     "Coefficients",
     "ExpressionPotential",
@@ -67,10 +69,12 @@ __all__ = [
     "energies",
     "ensemble",
     "integrate",
+    "lyapunov",
     "perturb",
     "problems",
     "resonance",
     "scan",
     "show_config",
     "sinc",
+    "tangent_map",
 ]

@@ -200,7 +200,13 @@ def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
         def gradient_modal(x):
             return change_basis(np.asarray(gradient(change_basis(x, back)), dtype=float), basis)
 
-        return {**spec, "value": value_modal, "gradient": gradient_modal}
+        hvp = spec.get("hessian_vector")
+
+        def hessian_vector_modal(x, v):
+            return change_basis(np.asarray(hvp(change_basis(x, back), change_basis(v, back)), dtype=float), basis)
+
+        return {**spec, "value": value_modal, "gradient": gradient_modal,
+                "hessian_vector": None if hvp is None else hessian_vector_modal}
     raise ValueError(_unmapped(kind, "in modal coordinates (a stiffness matrix)"))
 
 
@@ -248,7 +254,13 @@ def _permute_spec(spec: dict, lay: CoreLayout, potential) -> dict:
         def gradient_core(x):
             return np.asarray(gradient(x[..., inverse]), dtype=float)[..., perm]
 
-        return {**spec, "value": value_core, "gradient": gradient_core}
+        hvp = spec.get("hessian_vector")
+
+        def hessian_vector_core(x, v):
+            return np.asarray(hvp(x[..., inverse], v[..., inverse]), dtype=float)[..., perm]
+
+        return {**spec, "value": value_core, "gradient": gradient_core,
+                "hessian_vector": None if hvp is None else hessian_vector_core}
     raise ValueError(_unmapped(kind, "with its coordinates reordered (slow ones first, then block by block)"))
 
 

@@ -38,7 +38,7 @@ PROGRESS_FROM = 10**8
 def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_end: float | None = None,
              n_steps: int | None = None, save_every: int | None = None, track_energies: bool = True,
              threads: int | None = None, client=None, chunk_size: int | None = None, store=None,
-             progress: bool | None = None, saveat: SaveAt | None = None) -> xr.Dataset:
+             progress: bool | None = None, saveat: SaveAt | None = None, lyapunov: int | None = None) -> xr.Dataset:
     """Integrates many trajectories of one problem; returns an ``xarray.Dataset``.
 
     Parameters
@@ -82,6 +82,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     saveat : SaveAt, optional
         What to keep, as one value (replaces `save_every` and `track_energies`), the same value
         :func:`integrate` takes.
+    lyapunov : int, optional
+        Also the leading `lyapunov` finite-time Lyapunov exponents of each trajectory's numerical
+        map and its MEGNO (:func:`trigint.lyapunov` on each trajectory alone, the same numbers),
+        as ``lyapunov`` (trajectory, exponent) and ``megno`` (trajectory). Runs on this machine.
 
     Returns
     -------
@@ -109,6 +113,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
+    _check_lyapunov(lyapunov, problem, client, store)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every, track_energies = saveat.every, saveat.track_energies
     if threads is not None:
@@ -165,6 +170,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
                       + (f" (in {store})" if store else "") + "; the others have status 'interrupted'",
                       RuntimeWarning, stacklevel=2)
+    if lyapunov is not None and not interrupted:
+        ds = _with_exponents(ds, problem, method, batch, int(lyapunov), threads)
     blown = int((ds.status == "blow-up").sum())
     if blown:
         warnings.warn(f"{blown} of {count} trajectories blew up (status 'blow-up'); their numbers stop at "
@@ -222,6 +229,8 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
     da = da.rename(trajectory="h_omega").assign_coords(h_omega=h_omega, h=("h_omega", ds.h.values),
                                                        n_steps=("h_omega", ds.n_steps.values),
                                                        status=("h_omega", ds.status.values))
+    if "lyapunov" in ds:
+        da = da.assign_coords(lyapunov=("h_omega", ds.lyapunov.values[:, 0]), megno=("h_omega", ds.megno.values))
     da.name = f"max_deviation_{energy}"
     da.attrs.update(ds.attrs, energy=energy, t_end=float(t_end), omega_ref=ref)
     return da
@@ -274,6 +283,31 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
 
 #: the most threads one call may ask for
 MAX_THREADS = 1024
+
+
+def _check_lyapunov(count, problem, client, store) -> None:
+    """``lyapunov=``: a number of exponents, 1 … 2n, for a run on this machine."""
+    if count is None:
+        return
+    if not _check.is_integer(count) or not 1 <= count <= 2 * problem.dim:
+        raise ValueError(f"lyapunov: the number of exponents per trajectory, an integer from 1 to 2n = "
+                         f"{2 * problem.dim}, got {count!r}")
+    if client is not None or store is not None:
+        raise ValueError("lyapunov: the exponents are computed on this machine and not stored; leave out "
+                         "client= and store=, or run trigint.lyapunov per trajectory")
+
+
+def _with_exponents(ds, problem, method, batch, count: int, threads) -> xr.Dataset:
+    """The leading exponents and the MEGNO of every trajectory (each as ``lyapunov()`` alone)."""
+    from .lyapunov import lanes
+
+    exponents, megno, _ = lanes(problem, method, batch.q0, batch.p0, batch.h, batch.n_steps, count, threads)
+    names = [f"λ{j + 1}" for j in range(count)]
+    ds = ds.assign(lyapunov=(("trajectory", "exponent"), exponents), megno=("trajectory", megno))
+    ds = ds.assign_coords(exponent=names)
+    ds["lyapunov"].attrs["description"] = "finite-time Lyapunov exponents at the last step, largest first"
+    ds["megno"].attrs["description"] = "time-averaged MEGNO <Y> of the leading deviation vector"
+    return ds
 
 
 def _check_memory(problem, batch, save_every) -> None:

@@ -553,11 +553,15 @@ class PythonPotential(Potential):
     vectorized : bool
         Whether the callables take a block of trajectories (``ensemble()`` only calls them
         that way; ``integrate()`` passes a block of one row).
+    hessian_vector : callable, optional
+        (q, v) ↦ ∇²U(q) v, both of shape (n,), for the tangent map (:func:`trigint.lyapunov`).
+        Without it, the tangent map is refused unless central differences of the gradient are
+        allowed there (``finite_differences=True``).
 
     Attributes
     ----------
-    value_function, gradient_function : callable
-        The callables as given.
+    value_function, gradient_function, hessian_vector_function : callable
+        The callables as given (the last None when not given).
     vectorized : bool
         Whether they take a block of trajectories.
 
@@ -580,9 +584,13 @@ class PythonPotential(Potential):
         dim: int | None = None,
         *,
         vectorized: bool = False,
+        hessian_vector: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
     ):
         if not callable(value) or not callable(gradient):
             raise TypeError("value and gradient must be callables taking an array q")
+        if hessian_vector is not None and not callable(hessian_vector):
+            raise TypeError("hessian_vector must be a callable (q, v) -> Hess U(q) v, or None")
+        self.hessian_vector_function = hessian_vector
         if not isinstance(vectorized, bool):
             raise TypeError(f"vectorized: expected True or False, got {vectorized!r}")
         self.value_function, self.gradient_function = value, gradient
@@ -591,7 +599,7 @@ class PythonPotential(Potential):
 
     def describe(self, n: int) -> dict:
         return {"kind": "python", "n": n, "value": self.value_function, "gradient": self.gradient_function,
-                "vectorized": self.vectorized}
+                "vectorized": self.vectorized, "hessian_vector": self.hessian_vector_function}
 
     def __repr__(self) -> str:
         kind = ", vectorized" if self.vectorized else ""

@@ -37,9 +37,10 @@ pub use energy::Samples;
 pub use error::{CoreError, CoreResult};
 pub use output::{Form, Record, Status, TrajectoryOutput};
 pub use potential::{
-    Chain, ChainTerm, Fpu, LinearMap, Native, Op, Potential, Program, ProgramSpec, Wave,
+    Chain, ChainTerm, Fpu, LinearMap, Native, Op, Potential, Program, ProgramSpec, Scratch, Wave,
 };
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
+pub use run::tangent::{tangent, TangentOutput, TangentRequest};
 pub use run::Control;
 pub use run::{integrate, integrate_batch};
 pub use shape::Layout;

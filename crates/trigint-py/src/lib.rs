@@ -7,6 +7,7 @@ mod handle;
 mod krylov;
 mod potential;
 mod result;
+mod tangent;
 mod watch;
 
 use std::sync::atomic::AtomicBool;
@@ -261,6 +262,7 @@ fn kernel_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<RunResult>()?;

@@ -10,7 +10,7 @@ use numpy::{
 use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use trigint_core::{CoreError, CoreResult, Native, Potential, Real};
+use trigint_core::{CoreError, CoreResult, Native, Potential, Real, Scratch};
 
 use crate::convert::{description, item};
 
@@ -43,6 +43,15 @@ impl NativePotential {
                 value: item::<Bound<'_, PyAny>>(spec, "value")?.unbind(),
                 gradient: item::<Bound<'_, PyAny>>(spec, "gradient")?.unbind(),
                 vectorized: item(spec, "vectorized")?,
+                hessian_vector: spec
+                    .get_item("hessian_vector")?
+                    .filter(|h| !h.is_none())
+                    .map(|h| h.unbind()),
+                finite_differences: spec
+                    .get_item("finite_differences")?
+                    .map(|b| b.extract::<bool>())
+                    .transpose()?
+                    .unwrap_or(false),
                 error: Mutex::new(None),
             }));
         }
@@ -82,6 +91,10 @@ pub struct PythonCallbacks {
     value: Py<PyAny>,
     gradient: Py<PyAny>,
     vectorized: bool,
+    /// The user's Hessian–vector product (x, v) ↦ ∇²U(x) v, for the tangent map.
+    hessian_vector: Option<Py<PyAny>>,
+    /// Without one: whether the tangent map may difference the gradient instead.
+    finite_differences: bool,
     error: Mutex<Option<PyErr>>,
 }
 
@@ -255,6 +268,73 @@ impl Potential for PythonCallbacks {
             }
             Ok(u)
         })
+    }
+
+    /// The user's ∇²U(x)v (negated), or, where allowed, the central difference
+    /// (g(x + εv) − g(x − εv))/(2ε) with ε = ∛(machine ε)·(1 + ‖x‖)/‖v‖.
+    fn force_derivative(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut (),
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        let n = self.dim;
+        if let Some(hvp) = &self.hessian_vector {
+            return Python::attach(|py| {
+                let mut call = || -> PyResult<()> {
+                    let r = hvp.call1(
+                        py,
+                        (PyArray1::from_slice(py, x), PyArray1::from_slice(py, v)),
+                    )?;
+                    let hv: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
+                        PyTypeError::new_err("hessian_vector must return a 1-d float array")
+                    })?;
+                    if hv.len() != n {
+                        return Err(PyValueError::new_err(format!(
+                            "hessian_vector returned {} values for {n} coordinates",
+                            hv.len()
+                        )));
+                    }
+                    for (o, h) in out.iter_mut().zip(hv.as_array().iter()) {
+                        *o = -h;
+                    }
+                    Ok(())
+                };
+                call().map_err(|e| self.fail(py, e))
+            });
+        }
+        if !self.finite_differences {
+            return Err(CoreError::invalid(
+                "potential",
+                "this PythonPotential has no hessian_vector (x, v) -> Hess U(x) v, which the \
+                 tangent map needs; give one, or allow central differences of the gradient \
+                 (finite_differences=True)",
+            ));
+        }
+        let norm = |y: &[f64]| y.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let vn = norm(v);
+        if vn == 0.0 {
+            out.fill(0.0);
+            return Ok(());
+        }
+        let eps = f64::EPSILON.cbrt() * (1.0 + norm(x)) / vn;
+        let plus = Scratch::sized(&mut s.a, n);
+        for i in 0..n {
+            plus[i] = x[i] + eps * v[i];
+        }
+        let minus = Scratch::sized(&mut s.b, n);
+        for i in 0..n {
+            minus[i] = x[i] - eps * v[i];
+        }
+        let gp = Scratch::sized(&mut s.c, n);
+        self.force(&s.a, gp, false, ws)?;
+        self.force(&s.b, out, false, ws)?;
+        for i in 0..n {
+            out[i] = (s.c[i] - out[i]) / (2.0 * eps);
+        }
+        Ok(())
     }
 
     fn value<L: Real>(&self, x: &[L], _: &mut ()) -> CoreResult<L> {

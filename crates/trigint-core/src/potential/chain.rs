@@ -9,7 +9,7 @@
 
 use super::compiled::{Op, Program, ProgramSpec};
 use super::linear::{optional_map, LinearMap};
-use super::Potential;
+use super::{Potential, Scratch};
 use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
@@ -171,6 +171,44 @@ impl Potential for Chain {
             term.map.apply_transpose(g, force, t > 0);
         }
         Ok(value)
+    }
+
+    /// G(x)v = Σ_terms Lᵀ(−V''(Lx) ⊙ Lv), V'' from each term's curvature program.
+    fn force_derivative(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut ChainWorkspace<f64>,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        if s.registers.len() != self.terms.len() {
+            s.registers = self
+                .terms
+                .iter()
+                .map(|t| Ok(t.v.curvature()?.tile_registers::<f64>(TILE)))
+                .collect::<CoreResult<_>>()?;
+        }
+        for (t, term) in self.terms.iter().enumerate() {
+            let curvature = term.v.curvature()?;
+            let (y, c) = (&mut ws.y[t], &mut ws.g[t]);
+            term.map.apply(x, y);
+            let w = Scratch::sized(&mut s.a, term.map.rows);
+            term.map.apply(v, w);
+            curvature.eval_tiles(
+                y,
+                Some(&mut c[..]),
+                false,
+                &mut s.registers[t],
+                &mut ws.values[t],
+                TILE,
+            );
+            for (cb, wb) in c.iter_mut().zip(w.iter()) {
+                *cb *= *wb;
+            }
+            term.map.apply_transpose(c, out, t > 0);
+        }
+        Ok(())
     }
 
     #[inline(always)]

@@ -1,7 +1,7 @@
 //! The Fermi–Pasta–Ulam chain with alternating stiff and soft springs, written out in Rust.
 
 use super::linear::optional_map;
-use super::{LinearMap, Potential};
+use super::{LinearMap, Potential, Scratch};
 use crate::description::{FromDescription, Value};
 use crate::energy::at;
 use crate::error::{CoreError, CoreResult};
@@ -197,6 +197,34 @@ impl Fpu {
     }
 }
 
+impl Fpu {
+    /// G(x)v of the chain in its own variables: with the elongations d_i = ℓ_i·x and
+    /// e_i = ℓ_i·v, the force's cubes d_i³ become 3d_i²e_i and are distributed as in the force.
+    fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64], c: &mut Vec<f64>) {
+        let m = self.m;
+        let elongation = |y: &[f64], i: usize| -> f64 {
+            if i == 0 {
+                y[0] - y[m]
+            } else if i == m {
+                y[m - 1] + y[2 * m - 1]
+            } else {
+                (y[i] - y[m + i]) - (y[i - 1] + y[m + i - 1])
+            }
+        };
+        let c = Scratch::sized(c, m + 1);
+        for (i, ci) in c.iter_mut().enumerate() {
+            let d = elongation(x, i);
+            *ci = 3.0 * d * d * elongation(v, i);
+        }
+        let (f0, f1) = out.split_at_mut(m);
+        for j in 0..m {
+            let next = if j + 1 < m { c[j + 1] } else { -c[m] };
+            f0[j] = -c[j] + next;
+            f1[j] = c[j] + next;
+        }
+    }
+}
+
 /// Elongations and cubes of the springs of a long chain; with a map, x = M z and g(x).
 pub struct FpuWorkspace<L> {
     d: Vec<L>,
@@ -250,6 +278,33 @@ impl Potential for Fpu {
             None => Ok(self.chain(x, f, with_value, ws)),
             Some(map) => Ok(self.mapped(map, x, f, with_value, ws)),
         }
+    }
+
+    fn force_derivative(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        _ws: &mut FpuWorkspace<f64>,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        match &self.map {
+            None => self.chain_derivative(x, v, out, &mut s.c),
+            Some(map) => {
+                // x = M z: G_z v = Mᵀ G(Mz) (M v).
+                let n = 2 * self.m;
+                let mut xs = std::mem::take(&mut s.a);
+                let mut vs = std::mem::take(&mut s.b);
+                map.apply(x, Scratch::sized(&mut xs, n));
+                map.apply(v, Scratch::sized(&mut vs, n));
+                let mut gs = vec![0.0; n];
+                self.chain_derivative(&xs, &vs, &mut gs, &mut s.c);
+                out.fill(0.0);
+                map.apply_transpose_add(&gs, out);
+                (s.a, s.b) = (xs, vs);
+            }
+        }
+        Ok(())
     }
 
     #[inline(always)]

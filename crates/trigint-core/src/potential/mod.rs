@@ -25,6 +25,27 @@ pub use wave::Wave;
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 
+/// Scratch buffers of [`Potential::force_derivative`], sized by the potential at first use and
+/// reused between calls.
+#[derive(Default)]
+pub struct Scratch {
+    pub a: Vec<f64>,
+    pub b: Vec<f64>,
+    pub c: Vec<f64>,
+    /// Register files of programs evaluated over tiles (one list per term).
+    pub registers: Vec<Vec<Vec<f64>>>,
+}
+
+impl Scratch {
+    /// `v` resized to `n` (zeros where it grew).
+    pub fn sized(v: &mut Vec<f64>, n: usize) -> &mut [f64] {
+        if v.len() != n {
+            v.resize(n, 0.0);
+        }
+        &mut v[..n]
+    }
+}
+
 /// A potential U: ℝⁿ → ℝ with its force g = −∇U, on numbers of any lane width.
 pub trait Potential: Sync {
     /// Scratch space an evaluation needs, made once per run (or per bundle) and reused.
@@ -82,6 +103,25 @@ pub trait Potential: Sync {
 
     /// U(x) alone.
     fn value<L: Real>(&self, x: &[L], ws: &mut Self::Workspace<L>) -> CoreResult<L>;
+
+    /// The derivative of the force along v, G(x)v = d/dε g(x + εv)|₀ = −∇²U(x) v, into `out`:
+    /// what the tangent step applies to a deviation (see [`crate::tangent`]). Exact for every
+    /// native kind (FPU and stiffness maps analytically, compiled programs, chains and wave
+    /// equations through the second derivative derived from the tape). `scratch` is reused
+    /// between calls. The default says that this potential has none.
+    fn force_derivative(
+        &self,
+        _x: &[f64],
+        _v: &[f64],
+        _out: &mut [f64],
+        _ws: &mut Self::Workspace<f64>,
+        _scratch: &mut Scratch,
+    ) -> CoreResult<()> {
+        Err(CoreError::invalid(
+            "potential",
+            "this potential has no second derivatives (the tangent map needs G(x)v = -Hess U(x) v)",
+        ))
+    }
 
     /// Checks that `n` coordinates fit this potential.
     fn check_dim(&self, n: usize) -> CoreResult<()> {

@@ -7,7 +7,7 @@
 //! same bits alone and in a bundle.
 
 use super::compiled::{Program, ProgramSpec};
-use super::Potential;
+use super::{Potential, Scratch};
 use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
@@ -200,6 +200,51 @@ impl Potential for Wave {
             }
         }
         Ok(value)
+    }
+
+    /// G(q)v = −(1/N) Sᵀ(V''(u) ⊙ S v) with u = S q: two transforms to the grid, the curvature
+    /// program of V pointwise, one transform back.
+    fn force_derivative(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut WaveWorkspace,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        let curvature = self.v.curvature()?;
+        if s.registers.is_empty() {
+            s.registers.push(curvature.tile_registers::<f64>(TILE));
+        }
+        let n = self.grid.points();
+        let grid = &mut ws.grid;
+        let fourier = Scratch::sized(&mut s.a, n);
+        for (k, &i) in self.order.iter().enumerate() {
+            fourier[i] = x[k];
+        }
+        self.grid.to_grid(fourier, &mut grid.u, &mut grid.fft);
+        for (k, &i) in self.order.iter().enumerate() {
+            fourier[i] = v[k];
+        }
+        let w = Scratch::sized(&mut s.b, n);
+        self.grid.to_grid(fourier, w, &mut grid.fft);
+        curvature.eval_tiles(
+            &grid.u,
+            Some(&mut grid.g[..]),
+            false,
+            &mut s.registers[0],
+            &mut grid.values,
+            TILE,
+        );
+        for (c, wi) in grid.g.iter_mut().zip(w.iter()) {
+            *c *= *wi;
+        }
+        self.grid
+            .transpose(&mut grid.g, fourier, 1.0 / n as f64, &mut grid.fft);
+        for (k, &i) in self.order.iter().enumerate() {
+            out[k] = fourier[i];
+        }
+        Ok(())
     }
 
     fn value<L: Real>(&self, x: &[L], ws: &mut WaveWorkspace) -> CoreResult<L> {

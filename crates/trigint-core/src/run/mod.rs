@@ -13,6 +13,7 @@ mod bundle;
 mod hot;
 mod lanes;
 mod record;
+pub mod tangent;
 
 use crate::coefficients::MethodCoefficients;
 use crate::error::{CoreError, CoreResult};

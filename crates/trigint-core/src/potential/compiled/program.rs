@@ -10,7 +10,7 @@ use super::ops::{Binary, Op, ProgramSpec, Unary};
 use crate::description::{FromDescription, Value};
 use crate::error::{CoreError, CoreResult};
 use crate::potential::linear::{optional_map, LinearMap};
-use crate::potential::Potential;
+use crate::potential::{Potential, Scratch};
 use crate::real::Real;
 use crate::sum::Sum8;
 
@@ -26,6 +26,17 @@ pub struct Program {
     /// one-coordinate program, over many arguments (a chain's springs). None inside: that
     /// walk is interpreted, with the same bits.
     machine: Box<MachineCode>,
+    /// The tape and input map it was compiled from (None for a derived program), from which
+    /// its second derivatives are derived when first asked for.
+    source: Option<std::sync::Arc<(ProgramSpec, Option<LinearMap>)>>,
+    derived: Box<Derived>,
+}
+
+/// Programs derived from a program's tape, each built at its first use.
+#[derive(Debug, Clone, Default)]
+struct Derived {
+    tangent: OnceLock<Result<Box<Program>, String>>,
+    curvature: OnceLock<Result<Box<Program>, String>>,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -61,6 +72,57 @@ impl Program {
     /// (rows: the tape's coordinates, columns: the program's), e.g. the modal coordinates of a
     /// stiffness matrix; the program then acts on y and returns Tᵀ(−∇U).
     pub fn new(spec: &ProgramSpec, inputs: Option<&LinearMap>) -> CoreResult<Self> {
+        let (mut g, value, n) = Self::graph(spec, inputs)?;
+        let grad = g.adjoints(value, n, -1.0);
+        let force: Vec<u32> = grad
+            .into_iter()
+            .map(|a| a.unwrap_or_else(|| g.constant(0.0)))
+            .collect();
+        let mut program = Self::from_roots(g, n, value, &force);
+        program.source = Some(std::sync::Arc::new((spec.clone(), inputs.cloned())));
+        Ok(program)
+    }
+
+    /// The program's tangent: a program of 2n inputs (x, v) whose value is W = ∇U(x)·v and whose
+    /// force −∇W is (G(x)v, g(x)), with G = −∇²U: the Hessian–vector product, exact, derived by
+    /// differentiating the adjoint program once more (forward over reverse, as a graph).
+    fn tangent_of(spec: &ProgramSpec, inputs: Option<&LinearMap>) -> CoreResult<Self> {
+        let (mut g, value, n) = Self::graph(spec, inputs)?;
+        let grad = g.adjoints(value, n, 1.0);
+        let mut w = g.constant(0.0);
+        for (i, d) in grad.into_iter().enumerate() {
+            if let Some(d) = d {
+                let v = g.input(n + i);
+                let term = g.mul(d, v);
+                w = g.add(w, term);
+            }
+        }
+        let force: Vec<u32> = g
+            .adjoints(w, 2 * n, -1.0)
+            .into_iter()
+            .map(|a| a.unwrap_or_else(|| g.constant(0.0)))
+            .collect();
+        Ok(Self::from_roots(g, 2 * n, w, &force))
+    }
+
+    /// For a program of one variable: a program whose value is U'(y) and whose force is
+    /// −U''(y), so that its evaluation over many arguments gives the curvature at each.
+    fn curvature_of(spec: &ProgramSpec) -> CoreResult<Self> {
+        let (mut g, value, n) = Self::graph(spec, None)?;
+        if n != 1 {
+            return Err(CoreError::invalid(
+                "program",
+                format!("a curvature program needs one variable, got {n}"),
+            ));
+        }
+        let slope = g.adjoints(value, 1, 1.0)[0].unwrap_or_else(|| g.constant(0.0));
+        let bend = g.adjoints(slope, 1, -1.0)[0].unwrap_or_else(|| g.constant(0.0));
+        Ok(Self::from_roots(g, 1, slope, &[bend]))
+    }
+
+    /// The hash-consed graph of a tape read through `inputs`, its output node and the number
+    /// of the program's coordinates.
+    fn graph(spec: &ProgramSpec, inputs: Option<&LinearMap>) -> CoreResult<(Graph, u32, usize)> {
         let bad = |reason: String| Err(CoreError::invalid("program", reason));
         if spec.n_inputs == 0 {
             return bad("needs at least one coordinate".into());
@@ -158,12 +220,11 @@ impl Program {
             };
             ids.push(id);
         }
-        let value = ids[spec.output];
-        let grad = g.adjoints(value, n, -1.0);
-        let force: Vec<u32> = grad
-            .into_iter()
-            .map(|a| a.unwrap_or_else(|| g.constant(0.0)))
-            .collect();
+        Ok((g, ids[spec.output], n))
+    }
+
+    /// A program from its graph: `value` and the `force` nodes scheduled as three codes.
+    fn from_roots(g: Graph, n: usize, value: u32, force: &[u32]) -> Self {
         let roots: Vec<u32> = std::iter::once(value)
             .chain(force.iter().copied())
             .collect();
@@ -174,13 +235,43 @@ impl Program {
             Code::schedule(&g, n, None, Some(force)),
             Code::schedule(&g, n, Some(value), None),
         );
-        Ok(Program {
+        Program {
             n,
             full,
             force_only,
             value_only,
             machine: Box::default(),
+            source: None,
+            derived: Box::default(),
+        }
+    }
+
+    /// The tangent program ([`tangent_of`](Self::tangent_of)), built at first use.
+    pub(crate) fn tangent(&self) -> CoreResult<&Program> {
+        self.derived_program(&self.derived.tangent, |spec, map| {
+            Self::tangent_of(spec, map)
         })
+    }
+
+    /// The curvature program of a one-variable program ([`curvature_of`](Self::curvature_of)),
+    /// built at first use.
+    pub(crate) fn curvature(&self) -> CoreResult<&Program> {
+        self.derived_program(&self.derived.curvature, |spec, _| Self::curvature_of(spec))
+    }
+
+    fn derived_program<'s>(
+        &'s self,
+        cell: &'s OnceLock<Result<Box<Program>, String>>,
+        make: impl FnOnce(&ProgramSpec, Option<&LinearMap>) -> CoreResult<Program>,
+    ) -> CoreResult<&'s Program> {
+        cell.get_or_init(|| match &self.source {
+            Some(src) => make(&src.0, src.1.as_ref())
+                .map(Box::new)
+                .map_err(|e| e.to_string()),
+            None => Err("a derived program has no second derivatives of its own".into()),
+        })
+        .as_deref()
+        .map_err(|e| CoreError::invalid("program", e.clone()))
     }
 
     /// The same program without machine code: every evaluation interpreted (for comparing the
@@ -406,6 +497,35 @@ impl Potential for Program {
         } else {
             Self::eval(&self.force_only, &mut ws.force_only, x, Some(force))
         })
+    }
+
+    fn force_derivative(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        _ws: &mut ProgramWorkspace<f64>,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        let t = self.tangent()?;
+        let n = self.n;
+        let input = Scratch::sized(&mut s.a, 2 * n);
+        input[..n].copy_from_slice(&x[..n]);
+        input[n..].copy_from_slice(&v[..n]);
+        let both = Scratch::sized(&mut s.b, 2 * n);
+        if t.eval_native(1, input, Some(&mut *both)).is_none() {
+            if s.registers.is_empty() {
+                s.registers.push(vec![t.force_only.registers()]);
+            }
+            Self::eval(
+                &t.force_only,
+                &mut s.registers[0][0],
+                input,
+                Some(&mut *both),
+            );
+        }
+        out[..n].copy_from_slice(&both[..n]);
+        Ok(())
     }
 
     #[inline(always)]

@@ -1,0 +1,562 @@
+//! The tangent step: the exact linearization of the two-step recursion (2.5) that
+//! [`integrate`](super::integrate) steps, carried along its trajectory for a set of deviation
+//! vectors, with Benettin's QR re-orthonormalization (Benettin, Galgani, Giorgilli, Strelcyn
+//! 1980) and the MEGNO indicator of the leading vector (Cincotta, Simó 2000).
+//!
+//! Differentiating d_{n+1} = d_n − 2(1 − c) q_n + h²ψ g(φq_n), q_{n+1} = q_n + d_{n+1} gives the
+//! same recursion on a deviation (δq, δd) with the force replaced by its derivative along φδq,
+//!
+//!   δd_{n+1} = δd_n − 2(1 − c) δq_n + h²ψ G(φq_n) φδq_n,   δq_{n+1} = δq_n + δd_{n+1},
+//!   δp_n = (δd_{n+1} + δd_n) / (2hχ),
+//!
+//! G = −∇²U ([`Potential::force_derivative`]), started like (2.3) from (δq_0, δp_0). Written
+//! out per coordinate as the step is: the tangent of the numbers `integrate` computes, to
+//! rounding (the step's own summed form, so no second rounding path). The trajectory itself is
+//! advanced by the recursion's own functions, so it is `integrate`'s bit for bit.
+//!
+//! The deviations' inner product is ⟨a, b⟩ = Σ_k w_k (a_k b_k) over the 2n numbers (δq, δp), the
+//! metric w given by the caller (the user's Euclidean norm seen in the core's coordinates: ones
+//! for a permutation or an orthogonal basis).
+
+use super::{check_state, Control};
+use crate::coefficients::{Coef, MethodCoefficients, Weights};
+use crate::energy::at;
+use crate::error::{CoreError, CoreResult};
+use crate::output::Status;
+use crate::potential::{Potential, Scratch};
+use crate::recursion::{self, Observe, State};
+use crate::shape::{Dynamic, Layout, Shape, Storage};
+
+/// What a tangent run is asked for.
+#[derive(Clone, Debug)]
+pub struct TangentRequest {
+    pub n_steps: u64,
+    /// Steps between re-orthonormalizations; 0: never (the raw tangent map, for checking it).
+    pub renormalize_every: u64,
+    /// A sample is recorded at every re-orthonormalization whose step is a multiple of this
+    /// (and at the last step).
+    pub sample_every: u64,
+}
+
+/// The result of a tangent run, in the core's coordinates.
+#[derive(Clone, Debug)]
+pub struct TangentOutput {
+    /// Steps of the samples.
+    pub steps: Vec<u64>,
+    /// Per sample, Σ ln R_jj of each vector up to that step (divide by t for the exponents).
+    pub log_growth: Vec<Vec<f64>>,
+    /// Per sample, the time-averaged MEGNO ⟨Y⟩ of the first vector.
+    pub megno: Vec<f64>,
+    /// The deviations at the last step reached (K × n each): orthonormal when renormalizing,
+    /// else the tangent map applied to the initial ones.
+    pub dq: Vec<f64>,
+    pub dp: Vec<f64>,
+    /// The state at the last step reached (q_n, p_n).
+    pub q: Vec<f64>,
+    pub p: Vec<f64>,
+    pub steps_done: u64,
+    pub status: Status,
+    pub message: String,
+}
+
+/// The deviation vectors: per vector δq and δd (at step n + 1 once a step is taken), and the
+/// δq_n, δp_n that step completed.
+struct Deviations {
+    k: usize,
+    n: usize,
+    dq: Vec<f64>,
+    dd: Vec<f64>,
+    dp: Vec<f64>,
+    prev_q: Vec<f64>,
+}
+
+impl Deviations {
+    fn vector(v: &mut [f64], j: usize, n: usize) -> &mut [f64] {
+        &mut v[j * n..(j + 1) * n]
+    }
+}
+
+/// MEGNO of the first vector over the renormalization times t_i:
+/// Y(t_k) = (2/t_k) Σ_{i≤k} t_i ln(‖δ(t_i)‖/‖δ(t_{i−1})‖), ⟨Y⟩(t_k) = (1/t_k) Σ_{i≤k} Y(t_i)(t_i − t_{i−1}).
+#[derive(Default)]
+struct Megno {
+    weighted: f64,
+    integral: f64,
+    last_t: f64,
+}
+
+impl Megno {
+    fn add(&mut self, t: f64, log_growth: f64) -> f64 {
+        self.weighted += t * log_growth;
+        let y = 2.0 * self.weighted / t;
+        self.integral += y * (t - self.last_t);
+        self.last_t = t;
+        self.integral / t
+    }
+}
+
+/// Runs the trajectory from (q0, p0) with `k` deviation vectors (δq0, δp0 row-major, K × n, in
+/// the core's coordinates), re-orthonormalized every `renormalize_every` steps in the metric
+/// `metric` (n weights, applied to δq and δp alike). `control.report` is called every
+/// `control.every` steps and may stop the run (status "interrupted"). A trajectory or a
+/// deviation that turns non-finite ends the run ("blown_up") with what was recorded before.
+#[allow(clippy::too_many_arguments)]
+pub fn tangent<P: Potential>(
+    pot: &P,
+    layout: &Layout,
+    method: &MethodCoefficients,
+    q0: &[f64],
+    p0: &[f64],
+    dq0: &[f64],
+    dp0: &[f64],
+    metric: &[f64],
+    request: &TangentRequest,
+    control: &mut Control,
+) -> CoreResult<TangentOutput> {
+    layout.validate()?;
+    pot.check_dim(layout.dim())?;
+    let n = layout.dim();
+    method.validate(n, true)?;
+    check_state("q0", q0, n, "")?;
+    check_state("p0", p0, n, "")?;
+    if request.n_steps == 0 {
+        return Err(CoreError::invalid("n_steps", "must be >= 1"));
+    }
+    if request.sample_every == 0 {
+        return Err(CoreError::invalid("sample_every", "must be >= 1"));
+    }
+    if dq0.is_empty() || dq0.len() % n != 0 || dp0.len() != dq0.len() {
+        return Err(CoreError::invalid(
+            "deviation",
+            format!(
+                "expected K x {n} values in each of dq0 and dp0, got {} and {}",
+                dq0.len(),
+                dp0.len()
+            ),
+        ));
+    }
+    let k = dq0.len() / n;
+    if k > 2 * n {
+        return Err(CoreError::invalid(
+            "n_exponents",
+            format!("at most 2n = {} deviation vectors, got {k}", 2 * n),
+        ));
+    }
+    check_state("deviation", dq0, k * n, "dq0: ")?;
+    check_state("deviation", dp0, k * n, "dp0: ")?;
+    if metric.len() != n || metric.iter().any(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(CoreError::invalid(
+            "metric",
+            format!("expected {n} finite positive weights"),
+        ));
+    }
+    Run::new(
+        pot,
+        layout.dynamic(),
+        method,
+        q0,
+        p0,
+        dq0,
+        dp0,
+        metric,
+        k,
+        layout.omega2.clone(),
+    )?
+    .go(request, control)
+}
+
+struct Run<'a, P: Potential> {
+    pot: &'a P,
+    sh: Dynamic,
+    k: Coef<f64, Vec<f64>>,
+    /// The two-step sweep reads its weights' rows (unused when it observes nothing).
+    w: Weights<f64, Vec<f64>>,
+    /// q_n and d_n before the step that takes the state to n + 1.
+    prev_q: Vec<f64>,
+    prev_d: Vec<f64>,
+    ws: P::Workspace<f64>,
+    scratch: Scratch,
+    st: State<f64, Dynamic>,
+    dev: Deviations,
+    metric: &'a [f64],
+    /// φq_n, φδq and G(φq_n)φδq of one vector.
+    x: Vec<f64>,
+    phi_v: Vec<f64>,
+    gv: Vec<f64>,
+    out: TangentOutput,
+}
+
+impl<'a, P: Potential> Run<'a, P> {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        pot: &'a P,
+        sh: Dynamic,
+        method: &MethodCoefficients,
+        q0: &[f64],
+        p0: &[f64],
+        dq0: &[f64],
+        dp0: &[f64],
+        metric: &'a [f64],
+        k: usize,
+        layout_omega2: Vec<f64>,
+    ) -> CoreResult<Self> {
+        let n = sh.n();
+        let coef = Coef::new(&sh, &[method]);
+        let mut st = State::new(&sh);
+        st.q.get_mut().copy_from_slice(q0);
+        st.p.get_mut().copy_from_slice(p0);
+        Ok(Run {
+            pot,
+            ws: pot.workspace::<f64>(),
+            scratch: Scratch::default(),
+            k: coef,
+            st,
+            dev: Deviations {
+                k,
+                n,
+                dq: dq0.to_vec(),
+                dd: vec![0.0; k * n],
+                dp: dp0.to_vec(),
+                prev_q: dq0.to_vec(),
+            },
+            w: Weights::new(&sh, &layout_omega2, &[method]),
+            prev_q: q0.to_vec(),
+            prev_d: vec![0.0; n],
+            metric,
+            x: vec![0.0; n],
+            phi_v: vec![0.0; n],
+            gv: vec![0.0; k * n],
+            out: TangentOutput {
+                steps: Vec::new(),
+                log_growth: Vec::new(),
+                megno: Vec::new(),
+                dq: Vec::new(),
+                dp: Vec::new(),
+                q: Vec::new(),
+                p: Vec::new(),
+                steps_done: 0,
+                status: Status::Completed,
+                message: String::new(),
+            },
+            sh,
+        })
+    }
+
+    /// g(φq_n) into the state (the force `integrate` evaluates, the same call), then
+    /// G(φq_n)φδq of every vector into `gv`.
+    fn forces(&mut self) -> CoreResult<()> {
+        let phi_identity = self.k.phi_is_identity;
+        recursion::evaluate(
+            &self.sh,
+            self.pot,
+            &mut self.ws,
+            &self.k,
+            &mut self.st,
+            false,
+            phi_identity,
+            false,
+        )?;
+        let (ns, n) = (self.sh.ns(), self.sh.n());
+        let phi = self.k.phi.get();
+        let q = self.st.q.get();
+        for i in 0..n {
+            self.x[i] = if i < ns || phi_identity {
+                q[i]
+            } else {
+                at(phi, self.sh.coef(i)) * q[i]
+            };
+        }
+        for j in 0..self.dev.k {
+            let v = Deviations::vector(&mut self.dev.dq, j, n);
+            for i in 0..n {
+                self.phi_v[i] = if i < ns || phi_identity {
+                    v[i]
+                } else {
+                    at(phi, self.sh.coef(i)) * v[i]
+                };
+            }
+            let gv = Deviations::vector(&mut self.gv, j, n);
+            self.pot
+                .force_derivative(&self.x, &self.phi_v, gv, &mut self.ws, &mut self.scratch)?;
+        }
+        Ok(())
+    }
+
+    /// (2.3) on the deviations: δd_1 = −(1 − c)δq_0 + hχ δp_0 + ½h²ψ Gφδq_0, δq_1 = δq_0 + δd_1.
+    fn start(&mut self) {
+        let (ns, n, k) = (self.sh.ns(), self.sh.n(), &self.k);
+        let (omc, hchi, half) = (k.omc.get(), k.h_chi.get(), k.half_h2_psi.get());
+        for j in 0..self.dev.k {
+            let r = j * n..(j + 1) * n;
+            let (q, d) = (&mut self.dev.dq[r.clone()], &mut self.dev.dd[r.clone()]);
+            let (p, g) = (&self.dev.dp[r.clone()], &self.gv[r]);
+            for i in 0..ns {
+                d[i] = k.h * p[i] + k.half_h2 * g[i];
+                q[i] += d[i];
+            }
+            for i in ns..n {
+                let c = self.sh.coef(i);
+                d[i] = -(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * g[i];
+                q[i] += d[i];
+            }
+        }
+    }
+
+    /// One tangent step from δq_n, δd_n: δd_{n+1}, δp_n and δq_{n+1}.
+    fn step(&mut self) {
+        let (ns, n, k) = (self.sh.ns(), self.sh.n(), &self.k);
+        let (a, hp, inv) = (k.two_omc.get(), k.h2_psi.get(), k.inv_2h_chi.get());
+        for j in 0..self.dev.k {
+            let r = j * n..(j + 1) * n;
+            let (q, d, p) = (
+                &mut self.dev.dq[r.clone()],
+                &mut self.dev.dd[r.clone()],
+                &mut self.dev.dp[r.clone()],
+            );
+            let g = &self.gv[r.clone()];
+            self.dev.prev_q[r].copy_from_slice(q);
+            for i in 0..ns {
+                let next = d[i] + k.h2 * g[i];
+                p[i] = (next + d[i]) * k.inv_2h;
+                d[i] = next;
+                q[i] += next;
+            }
+            for i in ns..n {
+                let c = self.sh.coef(i);
+                let next = d[i] - at(a, c) * q[i] + at(hp, c) * g[i];
+                p[i] = (next + d[i]) * at(inv, c);
+                d[i] = next;
+                q[i] += next;
+            }
+        }
+    }
+
+    fn dot(&self, x: &[f64], y: &[f64], u: &[f64], v: &[f64]) -> f64 {
+        let w = self.metric;
+        let mut s = 0.0;
+        for i in 0..self.dev.n {
+            s += w[i] * (x[i] * y[i] + u[i] * v[i]);
+        }
+        s
+    }
+
+    /// Modified Gram–Schmidt on the vectors (δq_n, δp_n), the same combinations applied to
+    /// their continuation (δq_{n+1}, δd_{n+1}); returns ln R_jj.
+    fn orthonormalize(&mut self) -> Vec<f64> {
+        let (k, n) = (self.dev.k, self.dev.n);
+        let mut yq = std::mem::take(&mut self.dev.prev_q);
+        let mut logs = vec![0.0; k];
+        for j in 0..k {
+            for i in 0..j {
+                let r = {
+                    let (qi, qj) = (&yq[i * n..(i + 1) * n], &yq[j * n..(j + 1) * n]);
+                    let (pi, pj) = (
+                        &self.dev.dp[i * n..(i + 1) * n],
+                        &self.dev.dp[j * n..(j + 1) * n],
+                    );
+                    self.dot(qi, qj, pi, pj)
+                };
+                for v in [
+                    &mut yq,
+                    &mut self.dev.dp,
+                    &mut self.dev.dq,
+                    &mut self.dev.dd,
+                ] {
+                    for t in 0..n {
+                        v[j * n + t] -= r * v[i * n + t];
+                    }
+                }
+            }
+            let norm = {
+                let (qj, pj) = (&yq[j * n..(j + 1) * n], &self.dev.dp[j * n..(j + 1) * n]);
+                self.dot(qj, qj, pj, pj).sqrt()
+            };
+            logs[j] = norm.ln();
+            for v in [
+                &mut yq,
+                &mut self.dev.dp,
+                &mut self.dev.dq,
+                &mut self.dev.dd,
+            ] {
+                for t in 0..n {
+                    v[j * n + t] /= norm;
+                }
+            }
+        }
+        self.dev.prev_q = yq;
+        logs
+    }
+
+    fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
+        let (n, k) = (self.dev.n, self.dev.k);
+        let h = self.k.h;
+        let mut sums = vec![0.0; k];
+        let mut megno = Megno::default();
+        self.forces()?;
+        recursion::two_step_start(&self.sh, &self.k, &mut self.st);
+        self.start();
+        let every = control.every.max(1);
+        for step in 1..=request.n_steps {
+            // Step `step` → `step` + 1, which completes (q, p) and (δq, δp) at `step`.
+            self.forces()?;
+            self.prev_q.copy_from_slice(self.st.q.get());
+            self.prev_d.copy_from_slice(self.st.d.get());
+            recursion::two_step(
+                &self.sh,
+                &self.k,
+                &self.w,
+                &mut self.st,
+                Observe::No,
+                true,
+                &mut [],
+            );
+            self.step();
+            let finite = self.st.q.get().iter().all(|x| x.is_finite())
+                && self.dev.dq.iter().all(|x| x.is_finite());
+            if !finite {
+                self.out.status = Status::BlowUp;
+                self.out.message = format!(
+                    "the trajectory or a deviation is not finite at step {step} (t = {}): \
+                     stopped, keeping the samples before it",
+                    step as f64 * h
+                );
+                break;
+            }
+            self.out.steps_done = step;
+            let last = step == request.n_steps;
+            let renormalize = request.renormalize_every > 0
+                && (step.is_multiple_of(request.renormalize_every) || last);
+            if renormalize {
+                let logs = self.orthonormalize();
+                for (s, l) in sums.iter_mut().zip(&logs) {
+                    *s += l;
+                }
+                let y = megno.add(step as f64 * h, logs[0]);
+                if step.is_multiple_of(request.sample_every) || last {
+                    self.out.steps.push(step);
+                    self.out.log_growth.push(sums.clone());
+                    self.out.megno.push(y);
+                }
+            }
+            if step.is_multiple_of(every) && !(control.report)(step) {
+                self.out.status = Status::Interrupted;
+                self.out.message = format!("interrupted at step {step}");
+                break;
+            }
+        }
+        // The state at the last step reached: q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ),
+        // an observing step's numbers. After a blow-up, the state before the failing step.
+        let mut p = vec![0.0; n];
+        if self.out.status == Status::BlowUp {
+            // (q_{n}, d_{n}) were saved before the failing step; its own p is not known.
+            p.fill(f64::NAN);
+        } else {
+            recursion::momenta_after_step(&self.sh, &self.k, self.st.d.get(), &self.prev_d, &mut p);
+        }
+        self.out.q = std::mem::take(&mut self.prev_q);
+        self.out.p = p;
+        self.out.dq = std::mem::take(&mut self.dev.prev_q);
+        self.out.dp = std::mem::take(&mut self.dev.dp);
+        let _ = k;
+        Ok(self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::potential::{
+        Chain, Fpu, LinearMap, Op, Potential, Program, ProgramSpec, Scratch, Wave,
+    };
+
+    /// G(x)v against central differences of the force.
+    fn check<P: Potential>(p: &P, x: &[f64], v: &[f64]) {
+        let n = x.len();
+        let mut ws = p.workspace::<f64>();
+        let mut exact = vec![0.0; n];
+        p.force_derivative(x, v, &mut exact, &mut ws, &mut Scratch::default())
+            .unwrap();
+        let eps = 1e-5;
+        let at = |s: f64, ws: &mut P::Workspace<f64>| {
+            let y: Vec<f64> = x.iter().zip(v).map(|(a, b)| a + s * b).collect();
+            let mut f = vec![0.0; n];
+            p.force(&y, &mut f, false, ws).unwrap();
+            f
+        };
+        let (plus, minus) = (at(eps, &mut ws), at(-eps, &mut ws));
+        let mut err: f64 = 0.0;
+        let mut size: f64 = 0.0;
+        for i in 0..n {
+            err = err.max(((plus[i] - minus[i]) / (2.0 * eps) - exact[i]).abs());
+            size = size.max(exact[i].abs());
+        }
+        assert!(err <= 1e-7 * size, "error {err} against {size}");
+    }
+
+    fn point(n: usize, seed: f64) -> Vec<f64> {
+        (0..n)
+            .map(|i| 0.3 * ((i as f64 + 1.0) * seed).sin())
+            .collect()
+    }
+
+    #[test]
+    fn fpu_short_long_and_mapped() {
+        for m in [1, 3, 40] {
+            check(
+                &Fpu::new(m).unwrap(),
+                &point(2 * m, 1.3),
+                &point(2 * m, 0.7),
+            );
+        }
+        // A rotation by 45° of the first two variables as the input map.
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let map = LinearMap::from_csr(2, 2, &[0, 2, 4], &[0, 1, 0, 1], &[s, s, -s, s]).unwrap();
+        check(&Fpu::with_map(1, map).unwrap(), &[0.4, -0.2], &[0.3, 0.9]);
+    }
+
+    #[test]
+    fn program_chain_and_wave() {
+        // U = exp(x0 − x1) + x1⁴ sin(x2) / 4
+        let spec = ProgramSpec {
+            n_inputs: 3,
+            ops: vec![
+                Op::Input(0),
+                Op::Input(1),
+                Op::Input(2),
+                Op::Sub(0, 1),
+                Op::Exp(3),
+                Op::Powi(1, 4),
+                Op::Sin(2),
+                Op::Mul(5, 6),
+                Op::Const(0.25),
+                Op::Mul(7, 8),
+                Op::Add(4, 9),
+            ],
+            output: 10,
+        };
+        let program = Program::new(&spec, None).unwrap();
+        check(&program, &[0.2, -0.4, 0.7], &[1.0, 0.5, -0.3]);
+        check(&program.interpreted(), &[0.2, -0.4, 0.7], &[1.0, 0.5, -0.3]);
+        let (ptr, cols, vals) = crate::fixtures::fpu_springs(5);
+        let map = LinearMap::from_csr(6, 10, &ptr, &cols, &vals).unwrap();
+        let chain = Chain::single(map, &Chain::monomial(0.25, 4)).unwrap();
+        check(&chain, &point(10, 0.9), &point(10, 2.1));
+        let quartic_sine = ProgramSpec {
+            n_inputs: 1,
+            ops: vec![
+                Op::Input(0),
+                Op::Powi(0, 4),
+                Op::Const(0.25),
+                Op::Mul(2, 1),
+                Op::Sin(0),
+                Op::Add(3, 4),
+            ],
+            output: 5,
+        };
+        for shape in [vec![16], vec![8, 6]] {
+            let n: usize = shape.iter().product();
+            let order: Vec<usize> = (0..n).rev().collect();
+            let wave = Wave::new(&shape, &quartic_sine, order).unwrap();
+            check(&wave, &point(n, 1.7), &point(n, 0.4));
+        }
+    }
+}

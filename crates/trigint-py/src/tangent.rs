@@ -1,0 +1,91 @@
+//! `tangent`: the tangent step of one trajectory (see `trigint_core::tangent`), its samples
+//! returned as a dict of arrays.
+
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyDictMethods};
+use trigint_core::{Control, TangentRequest};
+
+use crate::potential::{to_2d, with_potential};
+use crate::{convert, handle, to_py, watch};
+
+/// tangent(potential, layout, method, q0, p0, dq0, dp0, metric, n_steps, renormalize_every,
+/// sample_every, progress_every, progress=None) -> dict
+///
+/// The trajectory of `integrate` from (q0, p0) with the K deviation vectors (rows of dq0,
+/// dp0) carried by the tangent step, re-orthonormalized every `renormalize_every` steps (0:
+/// never) in the metric `metric`. Returns `steps` (the samples' steps), `log_growth`
+/// (samples × K: Σ ln R_jj), `megno` (⟨Y⟩ of the first vector), `dq`, `dp` (K × n, at the last
+/// step), `q`, `p` (the state there), `steps_done`, `status` and `message`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (potential, layout, method, q0, p0, dq0, dp0, metric, n_steps, renormalize_every, sample_every, progress_every, progress=None))]
+pub fn tangent<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    layout: &Bound<'py, PyDict>,
+    method: &Bound<'py, PyDict>,
+    q0: PyReadonlyArray1<f64>,
+    p0: PyReadonlyArray1<f64>,
+    dq0: PyReadonlyArray2<f64>,
+    dp0: PyReadonlyArray2<f64>,
+    metric: PyReadonlyArray1<f64>,
+    n_steps: u64,
+    renormalize_every: u64,
+    sample_every: u64,
+    progress_every: u64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let given = handle::given(potential)?;
+    let pot = given.get();
+    let lay = convert::layout(layout)?;
+    let co = convert::method(method)?;
+    let (q0, p0, metric) = (convert::vec1(q0), convert::vec1(p0), convert::vec1(metric));
+    let k = dq0.as_array().nrows();
+    let flat = |a: PyReadonlyArray2<f64>| a.as_array().iter().copied().collect::<Vec<f64>>();
+    let (dq0, dp0) = (flat(dq0), flat(dp0));
+    let request = TangentRequest {
+        n_steps,
+        renormalize_every,
+        sample_every,
+    };
+    let mut pending: Option<PyErr> = None;
+    let out = {
+        let mut report = watch::reporter(&progress, &mut pending);
+        py.detach(|| {
+            let mut control = Control {
+                every: progress_every.max(1),
+                report: &mut report,
+            };
+            with_potential!(pot, |p| trigint_core::tangent(
+                p,
+                &lay,
+                &co,
+                &q0,
+                &p0,
+                &dq0,
+                &dp0,
+                &metric,
+                &request,
+                &mut control
+            ))
+        })
+    };
+    let out = out.map_err(|e| to_py(e, pot))?;
+    let n = q0.len();
+    let d = PyDict::new(py);
+    d.set_item("steps", PyArray1::from_slice(py, &out.steps))?;
+    let rows = out.log_growth.len();
+    let growth: Vec<f64> = out.log_growth.into_iter().flatten().collect();
+    d.set_item("log_growth", to_2d(py, growth, rows, k)?)?;
+    d.set_item("megno", PyArray1::from_slice(py, &out.megno))?;
+    d.set_item("dq", to_2d(py, out.dq, k, n)?)?;
+    d.set_item("dp", to_2d(py, out.dp, k, n)?)?;
+    d.set_item("q", PyArray1::from_slice(py, &out.q))?;
+    d.set_item("p", PyArray1::from_slice(py, &out.p))?;
+    d.set_item("steps_done", out.steps_done)?;
+    d.set_item("status", out.status.as_str())?;
+    d.set_item("message", out.message)?;
+    d.set_item("interrupted_by", pending.map(|e| e.to_string()))?;
+    Ok(d)
+}

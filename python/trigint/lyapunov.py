@@ -1,0 +1,375 @@
+"""Tangent maps and Lyapunov spectra of the integrator's own step.
+
+The two-step recursion (2.5) that :func:`~trigint.integrate` steps is a map of the state; its
+exact linearization along the trajectory is the same recursion on a deviation (δq, δp) with the
+force replaced by its derivative G(x)δ = −∇²U(x)δ,
+
+    δq_{n+1} − 2cos(hΩ̃)δq_n + δq_{n−1} = h²Ψ G(Φq_n) Φδq_n,    2hχ δp_n = δq_{n+1} − δq_{n−1},
+
+started like (2.3). The core carries it beside the trajectory (the trajectory's bits are those of
+``integrate``), with the second derivatives exact for every native potential kind (FPU,
+compiled expressions, chains and wave equations, from the tape), a user Hessian–vector product
+for a :class:`~trigint.PythonPotential`, or, when asked for, central differences of its gradient.
+
+:func:`lyapunov` turns this into finite-time Lyapunov exponents: one vector by renormalized
+growth, several by Benettin's method with QR re-orthonormalization (Benettin, Galgani,
+Giorgilli, Strelcyn, Meccanica 15 (1980); the tangent map method of Skokos, Lect. Notes Phys.
+790 (2010)), with the MEGNO chaos indicator ⟨Y⟩ of the leading vector (Cincotta, Simó, Astron.
+Astrophys. Suppl. 147 (2000)): ⟨Y⟩ → 2 on a regular (quasi-periodic) orbit, ⟨Y⟩ ≈ λt/2 on a
+chaotic one. :func:`tangent_map` applies the linearized map itself.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _check, _core, _native
+from ._method_names import resolve_method
+from .integrate import _coefficients, _positive_int, _progress, _resolve_steps, _state
+from .potentials import PythonPotential
+from .problem import OscillatoryProblem
+
+#: the seed of the default deviation vectors (see :func:`default_deviation`)
+DEFAULT_DEVIATION_SEED = 20150
+
+#: renormalize every this many steps unless told: growth over 16 steps stays far from overflow
+#: for any exponent a stable step can show, and the QR costs little beside the steps
+DEFAULT_RENORMALIZE_EVERY = 16
+
+#: history samples kept by default: about this many over the run
+DEFAULT_SAMPLES = 1000
+
+
+@dataclass(frozen=True)
+class LyapunovResult:
+    """Finite-time Lyapunov exponents of a trajectory of the numerical map.
+
+    Attributes
+    ----------
+    exponents : ndarray of shape (K,)
+        The finite-time spectrum at the last step, λ_j = (1/t) Σ ln R_jj of the j-th vector
+        (Benettin's order, which is largest first in the limit; at finite t neighbours may
+        still be out of order).
+    history : xarray.DataArray
+        The spectrum over time, dims ``(t, exponent)``, sampled at re-orthonormalizations.
+    megno : xarray.DataArray
+        The time-averaged MEGNO ⟨Y⟩ of the leading vector over ``t``.
+    t_end : float
+        The time reached; `status` ``"completed"``, ``"blow-up"`` or ``"interrupted"``, with
+        `message` saying what happened.
+    q, p : ndarray
+        The trajectory's state at the last step (the state ``integrate`` reaches, bit for bit).
+    dq, dp : ndarray of shape (K, n)
+        The orthonormal deviation vectors at the last step.
+    second_derivatives : str
+        ``"exact"``, ``"user hessian_vector"`` or ``"central differences"``.
+    """
+
+    exponents: np.ndarray
+    history: object
+    megno: object
+    t_end: float
+    steps_done: int
+    status: str
+    message: str
+    q: np.ndarray
+    p: np.ndarray
+    dq: np.ndarray
+    dp: np.ndarray
+    h: float
+    method: object
+    second_derivatives: str
+    renormalize_every: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def leading(self) -> float:
+        """The largest finite-time exponent."""
+        return float(self.exponents[0])
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{x:.4g}" for x in self.exponents[:6])
+        more = ", …" if self.exponents.size > 6 else ""
+        megno = float(self.megno.values[-1]) if self.megno.size else float("nan")
+        return (f"LyapunovResult({self.method.name}, h={self.h:g}, t={self.t_end:g}, {self.status}: "
+                f"exponents [{shown}{more}], MEGNO {megno:.3g}, {self.second_derivatives} second derivatives)")
+
+    def plot(self, ax=None):
+        """The finite-time exponents against t (log-scaled time), with the MEGNO on a twin axis."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        t = self.history["t"].values
+        for j in range(self.history.shape[1]):
+            ax.plot(t, self.history.values[:, j], lw=1, label=f"λ{j + 1}")
+        ax.set_xscale("log")
+        ax.set_xlabel("t")
+        ax.set_ylabel("finite-time exponent")
+        ax.axhline(0, color="0.6", lw=0.5)
+        if self.history.shape[1] <= 8:
+            ax.legend(loc="upper right", fontsize="small")
+        ax.set_title(f"{self.method.name}, h = {self.h:g}")
+        return ax
+
+
+def default_deviation(n: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The deviation vectors used when none are given: `count` orthonormal vectors in ℝ²ⁿ
+    (rows of (δq, δp)), the Q factor of a standard normal matrix drawn with
+    ``numpy.random.default_rng(DEFAULT_DEVIATION_SEED)``: deterministic, and in general position
+    (no chance alignment with an invariant subspace).
+
+    >>> dq, dp = default_deviation(3, 2)
+    >>> dq.shape, bool(np.allclose(np.hstack([dq, dp]) @ np.hstack([dq, dp]).T, np.eye(2)))
+    ((2, 3), True)
+    """
+    rng = np.random.default_rng(DEFAULT_DEVIATION_SEED)
+    q, _ = np.linalg.qr(rng.standard_normal((2 * n, count)))
+    rows = q.T
+    return np.ascontiguousarray(rows[:, :n]), np.ascontiguousarray(rows[:, n:])
+
+
+def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: float | None = None,
+             n_steps: int | None = None, n_exponents: int = 1, deviation=None,
+             renormalize_every: int = DEFAULT_RENORMALIZE_EVERY, sample_every: int | None = None,
+             finite_differences: bool = False, progress=None) -> LyapunovResult:
+    """The finite-time Lyapunov spectrum of the numerical map along the trajectory from (q0, p0).
+
+    The deviation vectors follow the exact tangent map of the step ``integrate`` takes (two-step
+    form); every `renormalize_every` steps they are re-orthonormalized (Gram–Schmidt, the QR of
+    Benettin's method) and λ_j(t) = (1/t) Σ ln R_jj accumulates. Norms and inner products are the
+    Euclidean ones of (δq, δp) in the coordinates q0, p0 are given in (grid values for a wave
+    problem, the original coordinates for a stiffness matrix).
+
+    Parameters
+    ----------
+    problem, method, q0, p0, h, t_end, n_steps
+        As for :func:`~trigint.integrate`.
+    n_exponents : int
+        How many exponents, 1 … 2n (2n: the full spectrum, which sums to zero: the map preserves
+        volume).
+    deviation : (dq0, dp0), optional
+        Initial deviation vectors, arrays of shape (n,) or (n_exponents, n); orthonormalized
+        before the first step. Default: :func:`default_deviation`.
+    renormalize_every : int
+        Steps between re-orthonormalizations (default 16).
+    sample_every : int, optional
+        Steps between samples of the history, a multiple of `renormalize_every` (default: about
+        1000 samples).
+    finite_differences : bool
+        For a :class:`~trigint.PythonPotential` without ``hessian_vector``: allow central
+        differences of its gradient (labelled in the result). Every other kind is exact.
+    progress : bool or callable, optional
+        As for :func:`~trigint.integrate`.
+
+    Returns
+    -------
+    LyapunovResult
+
+    Examples
+    --------
+    A linear problem (U = 0) has exponents → 0 like 1/t:
+
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.OscillatoryProblem(omega=[0.0, 5.0], potential=ti.ExpressionPotential("0*a*b", ["a", "b"]))
+    >>> res = ti.lyapunov(prob, "B", [1.0, 0.1], [0.0, 0.0], h=0.1, t_end=1000, n_exponents=4)
+    >>> bool(np.all(np.abs(res.exponents) < 0.02)), abs(float(res.exponents.sum())) < 1e-10
+    (True, True)
+    """
+    import xarray as xr
+
+    if not isinstance(problem, OscillatoryProblem):
+        raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    method = resolve_method(method)
+    h = _check.step_size(h)
+    n_steps = _resolve_steps(h, t_end, n_steps)
+    n = problem.dim
+    if not _check.is_integer(n_exponents) or not 1 <= n_exponents <= 2 * n:
+        raise ValueError(f"n_exponents: must be an integer from 1 to 2n = {2 * n} (the state has 2n numbers), "
+                         f"got {n_exponents!r}")
+    k = int(n_exponents)
+    renormalize_every = _positive_int(renormalize_every, "renormalize_every")
+    if sample_every is None:
+        sample_every = renormalize_every * max(1, n_steps // (renormalize_every * DEFAULT_SAMPLES))
+    sample_every = _positive_int(sample_every, "sample_every")
+    if sample_every % renormalize_every:
+        raise ValueError(f"sample_every: must be a multiple of renormalize_every = {renormalize_every}, "
+                         f"got {sample_every}")
+    q0 = _state(problem.as_state(q0, "q0"), "q0", n)
+    p0 = _state(problem.as_state(p0, "p0"), "p0", n)
+    dq0, dp0 = _deviations(problem, deviation, k)
+    run = _TangentRun(problem, method, h, finite_differences)
+    callback, close = _progress(progress, n_steps, run.slow)
+    out = None
+    try:
+        out = run.call(q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, callback)
+    finally:
+        close(None if out is None else int(out["steps_done"]))
+    steps = np.asarray(out["steps"], dtype=np.int64)
+    t = steps * h
+    growth = np.asarray(out["log_growth"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        spectrum = growth / t[:, None] if t.size else growth
+    names = [f"λ{j + 1}" for j in range(k)]
+    history = xr.DataArray(spectrum, dims=("t", "exponent"), coords={"t": t, "step": ("t", steps),
+                                                                      "exponent": names},
+                           name="lyapunov", attrs={"method": repr(method), "h": h})
+    megno = xr.DataArray(np.asarray(out["megno"]), dims=("t",), coords={"t": t}, name="megno")
+    exponents = spectrum[-1].copy() if t.size else np.full(k, np.nan)
+    if out["status"] != "completed":
+        import warnings
+
+        warnings.warn(out["message"], RuntimeWarning, stacklevel=2)
+    return LyapunovResult(
+        exponents=exponents, history=history, megno=megno, t_end=float(int(out["steps_done"]) * h),
+        steps_done=int(out["steps_done"]), status=out["status"], message=out["message"],
+        q=run.to_user(out["q"]), p=run.to_user(out["p"]), dq=run.to_user(out["dq"]), dp=run.to_user(out["dp"]),
+        h=h, method=method, second_derivatives=run.second_derivatives, renormalize_every=renormalize_every,
+    )
+
+
+def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float, n_steps: int = 1,
+                finite_differences: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The linearized numerical map applied to deviations: (δq_N, δp_N) = DΦ_h^N(q0, p0)·(δq, δp),
+    Φ_h the step of :func:`~trigint.integrate` (two-step form, p_n by the central difference).
+
+    `dq`, `dp` of shape (n,) or (K, n); returns arrays of the same shape.
+
+    >>> import numpy as np, trigint as ti
+    >>> prob = ti.problems.fpu(m=1, omega=10)
+    >>> dq, dp = ti.tangent_map(prob, "B", [1.0, 0.1], [0.0, 0.0], [1e-8, 0.0], [0.0, 0.0], h=0.05)
+    >>> a = ti.integrate(prob, "B", [1.0 + 1e-8, 0.1], [0.0, 0.0], h=0.05, n_steps=1)
+    >>> b = ti.integrate(prob, "B", [1.0, 0.1], [0.0, 0.0], h=0.05, n_steps=1)
+    >>> bool(np.allclose(dq, a.q[-1] - b.q[-1], rtol=1e-6, atol=1e-15))
+    True
+    """
+    if not isinstance(problem, OscillatoryProblem):
+        raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    method = resolve_method(method)
+    h = _check.step_size(h)
+    n_steps = _positive_int(n_steps, "n_steps")
+    n = problem.dim
+    q0 = _state(problem.as_state(q0, "q0"), "q0", n)
+    p0 = _state(problem.as_state(p0, "p0"), "p0", n)
+    dq_in, dp_in = (np.asarray(x, dtype=float) for x in (dq, dp))
+    single = dq_in.ndim == 1
+    dq2, dp2 = np.atleast_2d(dq_in), np.atleast_2d(dp_in)
+    if dq2.shape != dp2.shape or dq2.ndim != 2 or dq2.shape[1] != n:
+        raise ValueError(f"dq, dp: expected arrays of shape ({n},) or (K, {n}), got {dq_in.shape} and {dp_in.shape}")
+    _finite(dq2, "dq")
+    _finite(dp2, "dp")
+    run = _TangentRun(problem, method, h, finite_differences)
+    out = run.call(q0, p0, dq2, dp2, n_steps, 0, n_steps, None)
+    dq_out, dp_out = run.to_user(out["dq"]), run.to_user(out["dp"])
+    return (dq_out[0], dp_out[0]) if single else (dq_out, dp_out)
+
+
+def _finite(a: np.ndarray, name: str) -> None:
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: entries must be finite")
+
+
+def _deviations(problem, deviation, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The initial deviations as K orthonormal rows (δq, δp) in the user's coordinates."""
+    n = problem.dim
+    if deviation is None:
+        return default_deviation(n, k)
+    try:
+        dq, dp = deviation
+    except (TypeError, ValueError):
+        raise TypeError("deviation: expected a pair (dq0, dp0) of arrays of shape (n,) or (n_exponents, n)") from None
+    dq, dp = np.atleast_2d(np.asarray(dq, dtype=float)), np.atleast_2d(np.asarray(dp, dtype=float))
+    if dq.shape != (k, n) or dp.shape != (k, n):
+        raise ValueError(f"deviation: expected dq0 and dp0 of shape ({k}, {n}) for n_exponents = {k}, "
+                         f"got {dq.shape} and {dp.shape}")
+    _finite(dq, "deviation")
+    _finite(dp, "deviation")
+    rows = np.hstack([dq, dp])
+    norms = np.linalg.norm(rows, axis=1)
+    if np.any(norms == 0):
+        raise ValueError(f"deviation: vector {int(np.flatnonzero(norms == 0)[0])} is zero; a deviation needs a "
+                         "direction")
+    q, r = np.linalg.qr(rows.T)
+    diag = np.abs(np.diag(r))
+    if np.any(diag <= 1e-12 * norms.max()):
+        raise ValueError("deviation: the vectors are linearly dependent; give independent ones")
+    q = q * np.sign(np.diag(r))  # each vector keeps its direction
+    rows = q.T
+    return np.ascontiguousarray(rows[:, :n]), np.ascontiguousarray(rows[:, n:])
+
+
+class _TangentRun:
+    """What a tangent run of one problem needs in the core's coordinates."""
+
+    def __init__(self, problem, method, h: float, finite_differences: bool):
+        if not problem.stepper.has_spectrum:
+            raise ValueError("lyapunov, tangent_map: a Krylov problem (a large sparse stiffness matrix stepped by "
+                             "the Lanczos method) has no tangent step yet; give the stiffness as a dense matrix "
+                             "(problem.stiffness.toarray()) for problems of up to a few thousand coordinates")
+        self.problem, self.lay = problem, _native.core_layout(problem)
+        co = _coefficients(problem, method, h, "two-step")
+        self.method_spec = _native.method_spec(co, self.lay, problem.omega > 0)
+        pot = problem.potential
+        self.slow = isinstance(pot, PythonPotential)
+        self.second_derivatives = "exact"
+        self.potential = _native.problem_potential(problem, self.lay)
+        if isinstance(pot, PythonPotential):
+            if pot.hessian_vector_function is not None:
+                self.second_derivatives = "user hessian_vector"
+            elif finite_differences:
+                self.second_derivatives = "central differences"
+                spec = _native.potential_spec(pot, self.lay)
+                self.potential = _core.Potential({**spec, "finite_differences": True})
+        # the user's Euclidean norm in the core's coordinates: the maps are orthogonal (a
+        # permutation, a modal basis) or orthogonal up to a factor (the Fourier map, SᵀS = N·I)
+        if self.lay.transform is None:
+            scale = 1.0
+        else:
+            e0 = np.zeros((1, problem.dim))
+            e0[0, 0] = 1.0
+            scale = float(np.sum(self.lay.to_user(e0) ** 2))
+        self.metric = np.full(problem.dim, scale)
+
+    def to_user(self, x):
+        return self.lay.to_user(np.asarray(x))
+
+    def call(self, q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, callback):
+        lay = self.lay
+        every = 1 << 10 if self.slow else 1 << 16
+        out = _core.tangent(
+            self.potential, lay.spec, self.method_spec, lay.to_core(q0), lay.to_core(p0),
+            np.ascontiguousarray(lay.to_core(dq0)), np.ascontiguousarray(lay.to_core(dp0)), self.metric,
+            int(n_steps), int(renormalize_every), int(sample_every), every, callback,
+        )
+        if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
+            raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
+        return out
+
+
+def lanes(problem, method, q0, p0, h, n_steps, count: int, threads: int | None = None,
+          renormalize_every: int = DEFAULT_RENORMALIZE_EVERY):
+    """The leading `count` exponents and the MEGNO of each trajectory of an ensemble (rows of q0,
+    p0 with their own h and n_steps): each lane is :func:`lyapunov` on it alone, so its numbers
+    do not depend on the batch or the thread count. The lanes run on `threads` threads (default:
+    every core); the core leaves the interpreter while it steps. Returns (exponents of shape
+    (B, count), MEGNO of shape (B,), statuses)."""
+    import warnings
+    from concurrent.futures import ThreadPoolExecutor
+
+    count = int(count)
+    workers = (os.cpu_count() or 1) if threads is None else int(threads)
+
+    def one(b: int):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            r = lyapunov(problem, method, q0[b], p0[b], h=float(h[b]), n_steps=int(n_steps[b]), n_exponents=count,
+                         renormalize_every=renormalize_every)
+        return r.exponents, float(r.megno.values[-1]) if r.megno.size else np.nan, r.status
+
+    with ThreadPoolExecutor(max_workers=max(1, min(workers, len(h)))) as pool:
+        rows = list(pool.map(one, range(len(h))))
+    return (np.array([r[0] for r in rows]).reshape(len(h), count), np.array([r[1] for r in rows]),
+            np.array([r[2] for r in rows]))
