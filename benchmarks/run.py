@@ -402,7 +402,43 @@ def per_step(ns: float) -> str:
     return "" if np.isnan(ns) else f"{ns:.2f}"
 
 
-def write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, path: Path) -> None:
+def tangent_rows(n: int, count: int, repeat: int, smoke: bool) -> list[dict]:
+    """The leading Lyapunov exponent (tangent step beside the step) against integrate() with
+    energies streamed, on the same problem and steps; and a scan's exponent per lane."""
+    rows = []
+    prob, (q0, p0) = fpu()
+    names = [f"x{i}" for i in range(3)]
+    toda = ti.OscillatoryProblem([0.0, 3.0, 4.0], ti.ExpressionPotential(
+        " + ".join(f"exp({names[i]} - {names[(i + 1) % 3]})" for i in range(3)), names))
+    tq, tp = np.array([0.5, 0.2, -0.1]), np.array([0.3, 0.0, 0.1])
+    wave = ti.problems.wave((1 << 10,) if smoke else (1 << 16,), rho=1.0, potential="u**4/4")
+    (x,) = wave.mesh
+    wq, wp = 0.1 * np.cos(x), np.zeros_like(x)
+    steps_w = 20 if smoke else 200
+    for label, pr, q, p, h, steps in [("FPU m = 3, native", prob, q0, p0, H, n // 10),
+                                      ("Toda m = 3, ExpressionPotential", toda, tq, tp, 0.05, n // 10),
+                                      (f"wave equation, {wave.dim} points", wave, wq, wp, 0.01, steps_w)]:
+        a, b = interleaved([py_timer(single(pr, q, p, steps, True), steps),
+                            py_timer(lambda pr=pr, q=q, p=p, h=h, steps=steps: ti.lyapunov(pr, "B", q, p, h=h,
+                                                                                        n_steps=steps), steps)],
+                           repeat)
+        rows.append(row(f"{label}: leading exponent vs integrate()", "integrate(), energies streamed", a,
+                        "lyapunov()", b, 2.5))
+    h_omega = np.linspace(1.0, 3.0, count // 10 if smoke else count)
+    t_end = 20.0 if smoke else 200.0
+
+    def scan(extra):
+        return lambda: ti.scan(prob, "B", q0, p0, h_omega=h_omega, t_end=t_end, threads=1, progress=False, **extra)
+
+    work = int(np.sum(np.round(t_end / (h_omega / OMEGA))))
+    a, b = interleaved([py_timer(scan({}), work), py_timer(scan({"lyapunov": 1}), work)], repeat)
+    rows.append(row(f"scan over {h_omega.size} step sizes, 1 thread: with the leading exponent per lane",
+                    "scan()", a, "scan(lyapunov=1)", b, 2.5))
+    return rows
+
+
+def write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, path: Path,
+                 tangents=()) -> None:
     def table(rows):
         out = ["| workload | baseline | ns | trigint | ns | ratio | target |", "|---|---|---:|---|---:|---:|---:|"]
         for r in rows:
@@ -452,6 +488,13 @@ def write_report(limits, potentials, stiffness, krylov, others, interrupts, wave
         *[f"| {r['case']} | {r['c']:.2f} | {r['per_step']:.2f} | {r['per_step'] / r['c']:.2f}"
           f"{'' if r['per_step'] / r['c'] <= 1.3 else ' (missed)'} | ≤ 1.3 | {r['per_iteration']:.1f} | "
           f"{r['iterations']:.1f} | {r['products']:.1f} |" for r in krylov],
+        "",
+        "## Tangent maps and Lyapunov exponents",
+        "",
+        "ns per step of `lyapunov()` (one deviation vector, re-orthonormalized every 16 steps, MEGNO) "
+        "against `integrate()` of the same problem and steps with energies streamed; target ≤ 2.5.",
+        "",
+        *table(tangents),
         "",
         "## Whole jobs",
         "",
@@ -513,9 +556,10 @@ def main(argv=None) -> int:
     others = other_rows(args.smoke)
     waves = (wave_bench.rows(BUILD, args.smoke), wave_bench.scaling(args.smoke))
     interrupts = interrupt_rows(1 if args.smoke else 5)
+    tangents = tangent_rows(n, count, repeat, args.smoke)
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
-    write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, out)
+    write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, out, tangents)
     plot(limits + potentials + stiffness, out.with_suffix(".png"))
     print(out.read_text())
     print(f"wrote {out}")

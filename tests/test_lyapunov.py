@@ -198,3 +198,41 @@ def test_blow_up_stops_and_keeps_the_history():
     with pytest.warns(RuntimeWarning, match="not finite"):
         res = ti.lyapunov(problem, "B", [40.0, 0.0], [0.0, 0.0], h=0.3, n_steps=10_000)
     assert res.status == "blow-up" and res.steps_done < 10_000
+
+
+def test_ensemble_lanes_are_lyapunov_alone_at_any_thread_count():
+    problem = ti.problems.fpu(m=3, omega=30.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=30.0)
+    hs = np.array([0.02, 0.05, 0.071, 0.09])
+    one = ti.ensemble(problem, "C", q0, p0, h=hs, t_end=40.0, lyapunov=2, threads=1)
+    two = ti.ensemble(problem, "C", q0, p0, h=hs, t_end=40.0, lyapunov=2, threads=2)
+    assert np.array_equal(one.lyapunov.values, two.lyapunov.values)
+    assert np.array_equal(one.megno.values, two.megno.values, equal_nan=True)
+    for b in (0, 3):
+        alone = ti.lyapunov(problem, "C", q0, p0, h=float(hs[b]), t_end=40.0, n_exponents=2)
+        assert np.array_equal(one.lyapunov.values[b], alone.exponents)
+    scan = ti.scan(problem, "C", q0, p0, h_omega=hs * 30.0, t_end=40.0, lyapunov=1)
+    alone = ti.lyapunov(problem, "C", q0, p0, h=float(scan.h[2]), t_end=40.0)
+    assert scan.lyapunov.values[2] == alone.exponents[0]
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"lyapunov": 0}, "lyapunov"),
+    ({"lyapunov": 13}, "lyapunov"),
+    ({"lyapunov": 1, "store": "x"}, "store"),
+])
+def test_ensemble_lyapunov_bad_input(kwargs, message):
+    problem = ti.problems.fpu(m=3, omega=30.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=30.0)
+    with pytest.raises(ValueError, match=message):
+        ti.ensemble(problem, "B", q0, p0, h=0.02, n_steps=10, **kwargs)
+
+
+def test_krylov_problem_is_refused_with_a_way_out():
+    import scipy.sparse as sp
+
+    a = sp.diags([np.full(50, 2.0), np.full(49, -1.0), np.full(49, -1.0)], [0, -1, 1], format="csr") * 100
+    problem = ti.OscillatoryProblem(stiffness=a, potential=ti.ExpressionPotential(
+        " + ".join(f"q{i}**4/4" for i in range(50)), [f"q{i}" for i in range(50)]), path="krylov")
+    with pytest.raises(ValueError, match="Krylov"):
+        ti.lyapunov(problem, "B", np.full(50, 0.1), np.zeros(50), h=0.01, n_steps=10)

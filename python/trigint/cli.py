@@ -26,6 +26,46 @@ def _fpu(args) -> int:
     return 0 if sol.success else 1
 
 
+def _lyapunov(args) -> int:
+    import numpy as np
+
+    import trigint as ti
+    from trigint.plotting import save
+
+    prob = ti.problems.fpu(m=args.m, omega=args.omega)
+    q0, p0 = ti.problems.fpu_initial(m=args.m, omega=args.omega)
+    if args.h_omega_range is not None:
+        a, b, count = args.h_omega_range
+        if not float(count).is_integer() or count < 1:
+            raise ValueError(f"--h-omega-range: the count must be a whole number >= 1, got {count:g}")
+        h_omega = np.linspace(a, b, int(count))
+    else:
+        h_omega = np.asarray(args.h_omega, dtype=float)
+    if np.any(~np.isfinite(h_omega)) or np.any(h_omega <= 0):
+        raise ValueError("--h-omega: every value must be finite and > 0")
+    ds = ti.ensemble(prob, args.method, q0, p0, h=h_omega / args.omega, t_end=args.t_end, track_energies=False,
+                     lyapunov=args.exponents, progress=False)
+    names = list(ds.exponent.values)
+    print(f"FPU m = {args.m}, omega = {args.omega:g}, method {args.method}, t = {args.t_end:g}")
+    print("h*omega      " + "  ".join(f"{n:>10}" for n in names) + "       MEGNO  status")
+    for i, x in enumerate(h_omega):
+        row = "  ".join(f"{v:10.4g}" for v in ds.lyapunov.values[i])
+        print(f"{x:<12.6g} {row}  {ds.megno.values[i]:10.4g}  {ds.status.values[i]}")
+    if h_omega.size > 1:
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(h_omega, ds.lyapunov.values[:, 0], ".-", lw=0.8)
+        for k in range(1, int(h_omega.max() / np.pi) + 1):
+            ax.axvline(k * np.pi, color="0.7", lw=0.6, ls="--")
+        ax.set_xlabel(r"$h\omega$")
+        ax.set_ylabel(r"leading exponent $\lambda_1$")
+        ax.set_title(f"FPU m = {args.m}, ω = {args.omega:g}, method {args.method}, t = {args.t_end:g}")
+        for path in save(fig, Path(args.out) / "fpu_lyapunov"):
+            print(f"wrote {path}")
+    return 0
+
+
 def _resonance(args) -> int:
     from trigint.resonance import analyze
 
@@ -107,6 +147,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, default=3000.0, help="end time")
     p.add_argument("--out", default="reproduction", help="output folder for the plot")
     p.set_defaults(run=_fpu)
+
+    ly = sub.add_parser(
+        "lyapunov", formatter_class=fmt,
+        help="Lyapunov exponents of the integrator's map on the FPU problem, over step sizes",
+        description="The leading finite-time Lyapunov exponents (Benettin's method on the exact tangent map "
+                    "of the step) and the MEGNO indicator of the FPU chain integrated by one method, for each "
+                    "step size h = (h*omega)/omega; prints a table and, for several step sizes, plots the "
+                    "leading exponent against h*omega with the multiples of pi marked.")
+    ly.add_argument("--m", type=int, default=3, help="number of stiff springs")
+    ly.add_argument("--omega", type=float, default=50.0, help="stiff frequency omega")
+    ly.add_argument("--h-omega", type=float, nargs="+", default=[2 * 3.141592653589793 / 3],
+                    help="values of h*omega")
+    ly.add_argument("--h-omega-range", type=float, nargs=3, metavar=("FROM", "TO", "COUNT"), default=None,
+                    help="COUNT values of h*omega from FROM to TO (replaces --h-omega)")
+    ly.add_argument("--method", default="B", help="A-E, a filter alias, imex or stormer-verlet")
+    ly.add_argument("--t-end", type=float, default=1000.0, help="end time")
+    ly.add_argument("--exponents", type=int, default=1, help="how many exponents (1 to 4m)")
+    ly.add_argument("--out", default="reproduction", help="output folder for the plot")
+    ly.set_defaults(run=_lyapunov)
 
     r = sub.add_parser("resonance", formatter_class=fmt,
                        help="the paper's non-resonance conditions and assumptions at a step size",

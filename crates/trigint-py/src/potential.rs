@@ -331,8 +331,8 @@ impl Potential for PythonCallbacks {
         let gp = Scratch::sized(&mut s.c, n);
         self.force(&s.a, gp, false, ws)?;
         self.force(&s.b, out, false, ws)?;
-        for i in 0..n {
-            out[i] = (s.c[i] - out[i]) / (2.0 * eps);
+        for (o, g) in out.iter_mut().zip(&s.c) {
+            *o = (g - *o) / (2.0 * eps);
         }
         Ok(())
     }

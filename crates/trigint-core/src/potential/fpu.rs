@@ -200,28 +200,28 @@ impl Fpu {
 impl Fpu {
     /// G(x)v of the chain in its own variables: with the elongations d_i = ℓ_i·x and
     /// e_i = ℓ_i·v, the force's cubes d_i³ become 3d_i²e_i and are distributed as in the force.
+    #[inline(always)]
     fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64], c: &mut Vec<f64>) {
         let m = self.m;
-        let elongation = |y: &[f64], i: usize| -> f64 {
-            if i == 0 {
-                y[0] - y[m]
-            } else if i == m {
-                y[m - 1] + y[2 * m - 1]
-            } else {
-                (y[i] - y[m + i]) - (y[i - 1] + y[m + i - 1])
-            }
-        };
         let c = Scratch::sized(c, m + 1);
-        for (i, ci) in c.iter_mut().enumerate() {
-            let d = elongation(x, i);
-            *ci = 3.0 * d * d * elongation(v, i);
+        let (x0, x1) = x.split_at(m);
+        let (v0, v1) = v.split_at(m);
+        let term = |d: f64, e: f64| 3.0 * d * d * e;
+        c[0] = term(x0[0] - x1[0], v0[0] - v1[0]);
+        for i in 1..m {
+            c[i] = term(
+                (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]),
+                (v0[i] - v1[i]) - (v0[i - 1] + v1[i - 1]),
+            );
         }
+        c[m] = term(x0[m - 1] + x1[m - 1], v0[m - 1] + v1[m - 1]);
         let (f0, f1) = out.split_at_mut(m);
-        for j in 0..m {
-            let next = if j + 1 < m { c[j + 1] } else { -c[m] };
-            f0[j] = -c[j] + next;
-            f1[j] = c[j] + next;
+        for j in 0..m - 1 {
+            f0[j] = -c[j] + c[j + 1];
+            f1[j] = c[j] + c[j + 1];
         }
+        f0[m - 1] = -c[m - 1] - c[m];
+        f1[m - 1] = c[m - 1] - c[m];
     }
 }
 
@@ -280,6 +280,7 @@ impl Potential for Fpu {
         }
     }
 
+    #[inline(always)]
     fn force_derivative(
         &self,
         x: &[f64],

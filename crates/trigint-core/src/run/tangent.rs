@@ -18,6 +18,7 @@
 //! metric w given by the caller (the user's Euclidean norm seen in the core's coordinates: ones
 //! for a permutation or an orthogonal basis).
 
+use super::bundle::CHECK;
 use super::{check_state, Control};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
 use crate::energy::at;
@@ -125,7 +126,7 @@ pub fn tangent<P: Potential>(
     if request.sample_every == 0 {
         return Err(CoreError::invalid("sample_every", "must be >= 1"));
     }
-    if dq0.is_empty() || dq0.len() % n != 0 || dp0.len() != dq0.len() {
+    if dq0.is_empty() || !dq0.len().is_multiple_of(n) || dp0.len() != dq0.len() {
         return Err(CoreError::invalid(
             "deviation",
             format!(
@@ -242,10 +243,12 @@ impl<'a, P: Potential> Run<'a, P> {
         })
     }
 
-    /// g(φq_n) into the state (the force `integrate` evaluates, the same call), then
+    /// g(φq_n) into the state (the force `integrate` evaluates, the same numbers), then
     /// G(φq_n)φδq of every vector into `gv`.
+    #[inline(always)]
     fn forces(&mut self) -> CoreResult<()> {
         let phi_identity = self.k.phi_is_identity;
+        let inline = P::INLINE_FORCE && self.pot.inline_force_ready();
         recursion::evaluate(
             &self.sh,
             self.pot,
@@ -254,13 +257,27 @@ impl<'a, P: Potential> Run<'a, P> {
             &mut self.st,
             false,
             phi_identity,
-            false,
+            inline,
         )?;
-        let (ns, n) = (self.sh.ns(), self.sh.n());
+        let n = self.sh.n();
+        if phi_identity {
+            for j in 0..self.dev.k {
+                let r = j * n..(j + 1) * n;
+                self.pot.force_derivative(
+                    self.st.q.get(),
+                    &self.dev.dq[r.clone()],
+                    &mut self.gv[r],
+                    &mut self.ws,
+                    &mut self.scratch,
+                )?;
+            }
+            return Ok(());
+        }
+        let ns = self.sh.ns();
         let phi = self.k.phi.get();
         let q = self.st.q.get();
         for i in 0..n {
-            self.x[i] = if i < ns || phi_identity {
+            self.x[i] = if i < ns {
                 q[i]
             } else {
                 at(phi, self.sh.coef(i)) * q[i]
@@ -269,7 +286,7 @@ impl<'a, P: Potential> Run<'a, P> {
         for j in 0..self.dev.k {
             let v = Deviations::vector(&mut self.dev.dq, j, n);
             for i in 0..n {
-                self.phi_v[i] = if i < ns || phi_identity {
+                self.phi_v[i] = if i < ns {
                     v[i]
                 } else {
                     at(phi, self.sh.coef(i)) * v[i]
@@ -390,6 +407,7 @@ impl<'a, P: Potential> Run<'a, P> {
     fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
         let (n, k) = (self.dev.n, self.dev.k);
         let h = self.k.h;
+        debug_assert!(k >= 1);
         let mut sums = vec![0.0; k];
         let mut megno = Megno::default();
         self.forces()?;
@@ -399,8 +417,12 @@ impl<'a, P: Potential> Run<'a, P> {
         for step in 1..=request.n_steps {
             // Step `step` → `step` + 1, which completes (q, p) and (δq, δp) at `step`.
             self.forces()?;
-            self.prev_q.copy_from_slice(self.st.q.get());
-            self.prev_d.copy_from_slice(self.st.d.get());
+            // The state before the step is what a stop at this step reports.
+            let reported = step == request.n_steps || step.is_multiple_of(every);
+            if reported {
+                self.prev_q.copy_from_slice(self.st.q.get());
+                self.prev_d.copy_from_slice(self.st.d.get());
+            }
             recursion::two_step(
                 &self.sh,
                 &self.k,
@@ -411,21 +433,25 @@ impl<'a, P: Potential> Run<'a, P> {
                 &mut [],
             );
             self.step();
-            let finite = self.st.q.get().iter().all(|x| x.is_finite())
-                && self.dev.dq.iter().all(|x| x.is_finite());
+            // A NaN or an infinity never leaves the recursion: a test every CHECK steps (and at
+            // the samples) finds one.
+            let test = reported || step.is_multiple_of(CHECK);
+            let last = step == request.n_steps;
+            let renormalize = request.renormalize_every > 0
+                && (step.is_multiple_of(request.renormalize_every) || last);
+            let finite = !(test || renormalize)
+                || (self.st.q.get().iter().all(|x| x.is_finite())
+                    && self.dev.dq.iter().all(|x| x.is_finite()));
             if !finite {
                 self.out.status = Status::BlowUp;
                 self.out.message = format!(
-                    "the trajectory or a deviation is not finite at step {step} (t = {}): \
-                     stopped, keeping the samples before it",
+                    "the trajectory or a deviation is not finite at step {step} (t = {}) or \
+                     shortly before: stopped, keeping the samples before it",
                     step as f64 * h
                 );
                 break;
             }
             self.out.steps_done = step;
-            let last = step == request.n_steps;
-            let renormalize = request.renormalize_every > 0
-                && (step.is_multiple_of(request.renormalize_every) || last);
             if renormalize {
                 let logs = self.orthonormalize();
                 for (s, l) in sums.iter_mut().zip(&logs) {
@@ -448,8 +474,10 @@ impl<'a, P: Potential> Run<'a, P> {
         // an observing step's numbers. After a blow-up, the state before the failing step.
         let mut p = vec![0.0; n];
         if self.out.status == Status::BlowUp {
-            // (q_{n}, d_{n}) were saved before the failing step; its own p is not known.
+            // The last finite state is not kept (only every CHECK steps is one tested): the
+            // samples before the blow-up are what the run has.
             p.fill(f64::NAN);
+            self.prev_q.fill(f64::NAN);
         } else {
             recursion::momenta_after_step(&self.sh, &self.k, self.st.d.get(), &self.prev_d, &mut p);
         }
@@ -457,7 +485,6 @@ impl<'a, P: Potential> Run<'a, P> {
         self.out.p = p;
         self.out.dq = std::mem::take(&mut self.dev.prev_q);
         self.out.dp = std::mem::take(&mut self.dev.dp);
-        let _ = k;
         Ok(self.out)
     }
 }
