@@ -126,16 +126,16 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     h = _check.step_size(h)
-    n_steps = _resolve_steps(h, t_end, n_steps)
+    n_steps = resolve_steps(h, t_end, n_steps)
     if saveat is None:
-        save_every = check_steps(_positive_int(save_every, "save_every"), "save_every")
+        save_every = check_steps(positive_int(save_every, "save_every"), "save_every")
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every = saveat.every if saveat.every is not None else max(n_steps, 1)
     track_energies = saveat.track_energies
     if not isinstance(form, str) or form not in FORMS:
         raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
-    q0 = _state(problem.as_state(q0, "q0"), "q0", problem.dim)
-    p0 = _state(problem.as_state(p0, "p0"), "p0", problem.dim)
+    q0 = checked_state(problem.as_state(q0, "q0"), "q0", problem.dim)
+    p0 = checked_state(problem.as_state(p0, "p0"), "p0", problem.dim)
     n_samples = n_steps // save_every + 2
     if sample_bytes(problem, n_samples) > MAX_SAMPLE_BYTES:
         raise ValueError(
@@ -144,7 +144,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
             "increase save_every"
         )
     stepper = problem.stepper  # the recursion, or the Krylov step (trigint._steppers)
-    co = _coefficients(problem, method, h, form) if stepper.has_spectrum else None
+    co = method_coefficients(problem, method, h, form) if stepper.has_spectrum else None
     # A problem with its own resonance theory (a wave equation) warns after the run, knowing which
     # modes carry energy; the others by the ODE condition (3.2), before it.
     own_warning = getattr(problem, "warn_resonances", None)
@@ -153,7 +153,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     # a step that calls Python or runs Lanczos iterations is slow: the progress bar shows sooner
     slow = isinstance(problem.potential, PythonPotential) or not stepper.has_spectrum
     every = PROGRESS_EVERY_PYTHON if slow else PROGRESS_EVERY_NATIVE
-    callback, close = _progress(progress, n_steps, slow)
+    callback, close = progress_callback(progress, n_steps, slow)
     out = None
     try:
         out = stepper.run_one(problem, method, co, h, q0, p0, n_steps, save_every, form, bool(track_energies),
@@ -173,7 +173,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
 COEFFICIENTS_KEPT = 4
 
 
-def _coefficients(problem, method: Method, h: float, form: str):
+def method_coefficients(problem, method: Method, h: float, form: str):
     """``method.coefficients(h, problem.omega, form)``, kept on the problem for the next call
     with the same method object, h and form (a problem's frequencies never change)."""
     kept = problem.__dict__.setdefault("_coefficients_kept", {})
@@ -238,11 +238,11 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
     )
 
 
-def _resolve_steps(h: float, t_end, n_steps) -> int:
+def resolve_steps(h: float, t_end, n_steps) -> int:
     if (t_end is None) == (n_steps is None):
         raise ValueError("t_end, n_steps: give exactly one of them")
     if n_steps is not None:
-        return check_steps(_positive_int(n_steps, "n_steps"), "n_steps")
+        return check_steps(positive_int(n_steps, "n_steps"), "n_steps")
     t_end = _check.number(t_end, "t_end")
     if not np.isfinite(t_end) or t_end <= 0:
         raise ValueError(f"t_end: must be finite and > 0, got {t_end}")
@@ -256,7 +256,7 @@ def _resolve_steps(h: float, t_end, n_steps) -> int:
     return int(steps)
 
 
-def _positive_int(value, name: str, allow_zero: bool = False) -> int:
+def positive_int(value, name: str, allow_zero: bool = False) -> int:
     if not _check.is_integer(value):
         raise _check.IntegerTypeError(f"{name}: expected an integer, got {_check.shown(value)} "
                                       f"({type(value).__name__})")
@@ -265,7 +265,7 @@ def _positive_int(value, name: str, allow_zero: bool = False) -> int:
     return int(value)
 
 
-def _state(x, name: str, n: int) -> np.ndarray:
+def checked_state(x, name: str, n: int) -> np.ndarray:
     if np.iscomplexobj(x):
         raise TypeError(f"{name}: complex values are not allowed; the state is real")
     try:
@@ -282,7 +282,7 @@ def _state(x, name: str, n: int) -> np.ndarray:
     return a
 
 
-def _progress(progress, n_steps: int, slow: bool):
+def progress_callback(progress, n_steps: int, slow: bool):
     """A (callback, close) pair: a tqdm bar, the user's callable, or nothing."""
     if callable(progress) and not isinstance(progress, bool):
         return progress, lambda done=None: None

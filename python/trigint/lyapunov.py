@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _check, _core, _native
 from ._method_names import resolve_method
-from .integrate import _coefficients, _positive_int, _progress, _resolve_steps, _state
+from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 
@@ -58,14 +58,29 @@ class LyapunovResult:
     megno : xarray.DataArray
         The time-averaged MEGNO ⟨Y⟩ of the leading vector over ``t``.
     t_end : float
-        The time reached; `status` ``"completed"``, ``"blow-up"`` or ``"interrupted"``, with
-        `message` saying what happened.
+        The time reached.
+    status : str
+        ``"completed"``, ``"blow-up"`` or ``"interrupted"``.
+    message : str
+        What happened, in words (empty when completed).
     q, p : ndarray
         The trajectory's state at the last step (the state ``integrate`` reaches, bit for bit).
     dq, dp : ndarray of shape (K, n)
         The orthonormal deviation vectors at the last step.
     second_derivatives : str
         ``"exact"``, ``"user hessian_vector"`` or ``"central differences"``.
+    steps_done : int
+        Steps taken.
+    h : float
+        The step size.
+    method : Method
+        The method.
+    renormalize_every : int
+        Steps between re-orthonormalizations.
+    leading : float
+        ``exponents[0]``.
+    info : dict
+        Anything else a run reports.
     """
 
     exponents: np.ndarray
@@ -185,24 +200,24 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     h = _check.step_size(h)
-    n_steps = _resolve_steps(h, t_end, n_steps)
+    n_steps = resolve_steps(h, t_end, n_steps)
     n = problem.dim
     if not _check.is_integer(n_exponents) or not 1 <= n_exponents <= 2 * n:
         raise ValueError(f"n_exponents: must be an integer from 1 to 2n = {2 * n} (the state has 2n numbers), "
                          f"got {n_exponents!r}")
     k = int(n_exponents)
-    renormalize_every = _positive_int(renormalize_every, "renormalize_every")
+    renormalize_every = positive_int(renormalize_every, "renormalize_every")
     if sample_every is None:
         sample_every = renormalize_every * max(1, n_steps // (renormalize_every * DEFAULT_SAMPLES))
-    sample_every = _positive_int(sample_every, "sample_every")
+    sample_every = positive_int(sample_every, "sample_every")
     if sample_every % renormalize_every:
         raise ValueError(f"sample_every: must be a multiple of renormalize_every = {renormalize_every}, "
                          f"got {sample_every}")
-    q0 = _state(problem.as_state(q0, "q0"), "q0", n)
-    p0 = _state(problem.as_state(p0, "p0"), "p0", n)
+    q0 = checked_state(problem.as_state(q0, "q0"), "q0", n)
+    p0 = checked_state(problem.as_state(p0, "p0"), "p0", n)
     dq0, dp0 = _deviations(problem, deviation, k)
     run = _TangentRun(problem, method, h, finite_differences)
-    callback, close = _progress(progress, n_steps, run.slow)
+    callback, close = progress_callback(progress, n_steps, run.slow)
     out = None
     try:
         out = run.call(q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, callback)
@@ -236,8 +251,24 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
     """The linearized numerical map applied to deviations: (δq_N, δp_N) = DΦ_h^N(q0, p0)·(δq, δp),
     Φ_h the step of :func:`~trigint.integrate` (two-step form, p_n by the central difference).
 
-    `dq`, `dp` of shape (n,) or (K, n); returns arrays of the same shape.
+    Parameters
+    ----------
+    problem, method, q0, p0, h
+        As for :func:`~trigint.integrate`.
+    dq, dp : array of shape (n,) or (K, n)
+        The deviations (K of them as rows), in the user's coordinates.
+    n_steps : int
+        How many steps N the map spans (default 1).
+    finite_differences : bool
+        As for :func:`lyapunov`.
 
+    Returns
+    -------
+    (dq_N, dp_N) : arrays of the shape of `dq`
+        The image of the deviations, exact to rounding.
+
+    Examples
+    --------
     >>> import numpy as np, trigint as ti
     >>> prob = ti.problems.fpu(m=1, omega=10)
     >>> dq, dp = ti.tangent_map(prob, "B", [1.0, 0.1], [0.0, 0.0], [1e-8, 0.0], [0.0, 0.0], h=0.05)
@@ -250,10 +281,10 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     h = _check.step_size(h)
-    n_steps = _positive_int(n_steps, "n_steps")
+    n_steps = positive_int(n_steps, "n_steps")
     n = problem.dim
-    q0 = _state(problem.as_state(q0, "q0"), "q0", n)
-    p0 = _state(problem.as_state(p0, "p0"), "p0", n)
+    q0 = checked_state(problem.as_state(q0, "q0"), "q0", n)
+    p0 = checked_state(problem.as_state(p0, "p0"), "p0", n)
     dq_in, dp_in = (np.asarray(x, dtype=float) for x in (dq, dp))
     single = dq_in.ndim == 1
     dq2, dp2 = np.atleast_2d(dq_in), np.atleast_2d(dp_in)
@@ -310,7 +341,7 @@ class _TangentRun:
                              "the Lanczos method) has no tangent step yet; give the stiffness as a dense matrix "
                              "(problem.stiffness.toarray()) for problems of up to a few thousand coordinates")
         self.problem, self.lay = problem, _native.core_layout(problem)
-        co = _coefficients(problem, method, h, "two-step")
+        co = method_coefficients(problem, method, h, "two-step")
         self.method_spec = _native.method_spec(co, self.lay, problem.omega > 0)
         pot = problem.potential
         self.slow = isinstance(pot, PythonPotential)
