@@ -113,7 +113,17 @@ class LyapunovResult:
                 f"exponents [{shown}{more}], MEGNO {megno:.3g}, {self.second_derivatives} second derivatives)")
 
     def plot(self, ax=None):
-        """The finite-time exponents against t (log-scaled time), with the MEGNO on a twin axis."""
+        """The finite-time exponents against t (log-scaled time).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
