@@ -54,8 +54,12 @@ class MatrixFunctions:
         return np.array([rows[name] for name in _native.KRYLOV_FUNCTIONS], dtype=float)
 
     def phi_is_identity(self) -> bool:
-        """Whether φ = 1 at a few points spread over [0, (3/h)²] (then the force is taken at q)."""
-        probe = self(np.array([0.0, 0.25, 1.0, 4.0, 9.0]) / self.h**2)
+        """Whether φ = 1 at a few points hω ∈ {0, ½, 1, 2, 3} (then the force is taken at q), those
+        a method with a stability limit on hω (the α-family with α < ¼: Störmer–Verlet's 2) allows."""
+        h_omega = np.array([0.0, 0.5, 1.0, 2.0, 3.0])
+        limit = getattr(self.method, "h_omega_limit", np.inf)
+        h_omega = np.append(h_omega[h_omega < limit], 0.9 * limit) if np.isfinite(limit) else h_omega
+        probe = self((h_omega / self.h) ** 2)
         return bool(np.all(probe[_native.KRYLOV_FUNCTIONS.index("phi")] == 1.0))
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _krylov, _native
+from . import _core, _krylov, _native
 
 
 class Recursion:
@@ -82,6 +82,39 @@ class Recursion:
         """None: the energies come from the core's channels at the frequencies."""
         return None
 
+    def tangent(self, problem, method, h: float, potential, q0, p0, dq0, dp0, n_steps: int, renormalize_every: int,
+                sample_every: int, every: int, callback) -> dict:
+        """One trajectory with deviation vectors (rows of dq0, dp0) carried by the tangent step
+        of the two-step recursion (``_core.tangent``); `potential` the built potential in the
+        core's coordinates, or None for the problem's. Everything in and out in the user's
+        coordinates, whose Euclidean norm the core's metric reproduces (the maps are orthogonal:
+        a permutation, a modal basis, or the Fourier map with SᵀS = N·I)."""
+        from .integrate import method_coefficients
+
+        lay = _native.core_layout(problem)
+        co = method_coefficients(problem, method, h, "two-step")
+        if potential is None:
+            potential = _native.problem_potential(problem, lay)
+        if lay.transform is None:
+            scale = 1.0
+        else:
+            unit = np.zeros((1, problem.dim))
+            unit[0, 0] = 1.0
+            scale = float(np.sum(lay.to_user(unit) ** 2))
+        out = _core.tangent(
+            potential, lay.spec, _native.method_spec(co, lay, problem.omega > 0), lay.to_core(q0), lay.to_core(p0),
+            np.ascontiguousarray(lay.to_core(dq0)), np.ascontiguousarray(lay.to_core(dp0)),
+            np.full(problem.dim, scale), int(n_steps), int(renormalize_every), int(sample_every), int(every), callback,
+        )
+        for key in ("q", "p", "dq", "dp"):
+            out[key] = lay.to_user(np.asarray(out[key]))
+        return out
+
+    def tangent_potential(self, problem, finite_differences: bool):
+        """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
+        spec = _native.potential_spec(problem.potential, _native.core_layout(problem))
+        return _core.Potential({**spec, "finite_differences": True}) if finite_differences else None
+
 
 class Krylov:
     """The one-step form with the matrix functions of h√A applied by the Lanczos method in the
@@ -114,6 +147,25 @@ class Krylov:
         a = problem.stiffness
         return {"stiffness_indptr": a.indptr, "stiffness_indices": a.indices, "stiffness_data": a.data,
                 "krylov_tolerance": problem.krylov_tolerance}
+
+    def tangent(self, problem, method, h: float, potential, q0, p0, dq0, dp0, n_steps: int, renormalize_every: int,
+                sample_every: int, every: int, callback) -> dict:
+        """The tangent step of the one-step form with the Lanczos products (``_core.tangent_krylov``),
+        in the user's coordinates (the only ones here)."""
+        spec = _krylov.stiffness_spec(problem)
+        if potential is None:
+            potential = _native.built_potential(problem.potential, problem.dim)
+        return _core.tangent_krylov(
+            potential, spec["n"], spec["indptr"], spec["indices"], spec["data"], _krylov.method_spec(method, h),
+            spec["tol"], _krylov.MAX_ITERATIONS, np.ascontiguousarray(q0), np.ascontiguousarray(p0),
+            np.ascontiguousarray(dq0), np.ascontiguousarray(dp0), np.ones(problem.dim), int(n_steps),
+            int(renormalize_every), int(sample_every), int(every), callback,
+        )
+
+    def tangent_potential(self, problem, finite_differences: bool):
+        """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
+        spec = problem.potential.describe(problem.dim)
+        return _core.Potential({**spec, "finite_differences": True}) if finite_differences else None
 
     def whole_state_energies(self, problem, q, p, method, h) -> dict:
         """H, H_ω and H_slow of each row of q, p (no modified energy: it needs the frequencies)."""

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _check, _core, _native
+from . import _check
 from ._method_names import resolve_method
 from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
@@ -251,7 +251,7 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
     return LyapunovResult(
         exponents=exponents, history=history, megno=megno, t_end=float(int(out["steps_done"]) * h),
         steps_done=int(out["steps_done"]), status=out["status"], message=out["message"],
-        q=run.to_user(out["q"]), p=run.to_user(out["p"]), dq=run.to_user(out["dq"]), dp=run.to_user(out["dp"]),
+        q=np.asarray(out["q"]), p=np.asarray(out["p"]), dq=np.asarray(out["dq"]), dp=np.asarray(out["dp"]),
         h=h, method=method, second_derivatives=run.second_derivatives, renormalize_every=renormalize_every,
     )
 
@@ -304,7 +304,7 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
     _finite(dp2, "dp")
     run = _TangentRun(problem, method, h, finite_differences)
     out = run.call(q0, p0, dq2, dp2, n_steps, 0, n_steps, None)
-    dq_out, dp_out = run.to_user(out["dq"]), run.to_user(out["dp"])
+    dq_out, dp_out = np.asarray(out["dq"]), np.asarray(out["dp"])
     return (dq_out[0], dp_out[0]) if single else (dq_out, dp_out)
 
 
@@ -343,48 +343,26 @@ def _deviations(problem, deviation, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 class _TangentRun:
-    """What a tangent run of one problem needs in the core's coordinates."""
+    """A tangent run of one problem with one method and step size, by the problem's stepper."""
 
     def __init__(self, problem, method, h: float, finite_differences: bool):
-        if not problem.stepper.has_spectrum:
-            raise ValueError("lyapunov, tangent_map: a Krylov problem (a large sparse stiffness matrix stepped by "
-                             "the Lanczos method) has no tangent step yet; give the stiffness as a dense matrix "
-                             "(problem.stiffness.toarray()) for problems of up to a few thousand coordinates")
-        self.problem, self.lay = problem, _native.core_layout(problem)
-        co = method_coefficients(problem, method, h, "two-step")
-        self.method_spec = _native.method_spec(co, self.lay, problem.omega > 0)
+        self.problem, self.method, self.h = problem, method, h
         pot = problem.potential
-        self.slow = isinstance(pot, PythonPotential)
+        self.slow = isinstance(pot, PythonPotential) or not problem.stepper.has_spectrum
         self.second_derivatives = "exact"
-        self.potential = _native.problem_potential(problem, self.lay)
+        differenced = False
         if isinstance(pot, PythonPotential):
             if pot.hessian_vector_function is not None:
                 self.second_derivatives = "user hessian_vector"
             elif finite_differences:
                 self.second_derivatives = "central differences"
-                spec = _native.potential_spec(pot, self.lay)
-                self.potential = _core.Potential({**spec, "finite_differences": True})
-        # the user's Euclidean norm in the core's coordinates: the maps are orthogonal (a
-        # permutation, a modal basis) or orthogonal up to a factor (the Fourier map, SᵀS = N·I)
-        if self.lay.transform is None:
-            scale = 1.0
-        else:
-            e0 = np.zeros((1, problem.dim))
-            e0[0, 0] = 1.0
-            scale = float(np.sum(self.lay.to_user(e0) ** 2))
-        self.metric = np.full(problem.dim, scale)
-
-    def to_user(self, x):
-        return self.lay.to_user(np.asarray(x))
+                differenced = True
+        self.potential = problem.stepper.tangent_potential(problem, differenced)
 
     def call(self, q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, callback):
-        lay = self.lay
         every = 1 << 10 if self.slow else 1 << 16
-        out = _core.tangent(
-            self.potential, lay.spec, self.method_spec, lay.to_core(q0), lay.to_core(p0),
-            np.ascontiguousarray(lay.to_core(dq0)), np.ascontiguousarray(lay.to_core(dp0)), self.metric,
-            int(n_steps), int(renormalize_every), int(sample_every), every, callback,
-        )
+        out = self.problem.stepper.tangent(self.problem, self.method, self.h, self.potential, q0, p0, dq0, dp0,
+                                           n_steps, renormalize_every, sample_every, every, callback)
         if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
             raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
         return out

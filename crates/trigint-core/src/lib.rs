@@ -40,9 +40,10 @@ pub use potential::{
     Chain, ChainTerm, Fpu, LinearMap, Native, Op, Potential, Program, ProgramSpec, Scratch, Wave,
 };
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
-pub use run::tangent::{tangent, TangentOutput, TangentRequest};
+pub use run::tangent::tangent;
 pub use run::Control;
 pub use run::{integrate, integrate_batch};
+pub use run::{TangentOutput, TangentRequest};
 pub use shape::Layout;
 
 /// Trajectories per bundle of the batched kernel: one AVX-512 register of f64.

@@ -247,3 +247,88 @@ pub fn integrate_krylov<'py>(
     info.set_item("tolerance", tol)?;
     Ok(r.with_info(info))
 }
+
+/// tangent_krylov(potential, n, indptr, indices, data, method, tol, max_iterations, q0, p0, dq0,
+/// dp0, metric, n_steps, renormalize_every, sample_every, progress_every, progress=None) -> dict
+///
+/// `_core.tangent` on the Krylov path (one trajectory, its method a dict as `integrate_krylov`
+/// takes): the same dict back.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (potential, n, indptr, indices_, data, method, tol, max_iterations, q0, p0, dq0, dp0, metric, n_steps, renormalize_every, sample_every, progress_every, progress=None))]
+pub fn tangent_krylov<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    n: usize,
+    indptr: PyReadonlyArray1<i64>,
+    indices_: PyReadonlyArray1<i64>,
+    data: PyReadonlyArray1<f64>,
+    method: Bound<'py, PyDict>,
+    tol: f64,
+    max_iterations: usize,
+    q0: PyReadonlyArray1<f64>,
+    p0: PyReadonlyArray1<f64>,
+    dq0: PyReadonlyArray2<f64>,
+    dp0: PyReadonlyArray2<f64>,
+    metric: PyReadonlyArray1<f64>,
+    n_steps: u64,
+    renormalize_every: u64,
+    sample_every: u64,
+    progress_every: u64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let given = handle::given(potential)?;
+    let pot = given.get();
+    let a = Csr::new(
+        n,
+        indices(indptr, "row pointer")?,
+        indices(indices_, "column index")?,
+        data.as_array().to_vec(),
+    )
+    .map_err(|e| to_py(e, pot))?;
+    let functions = Functions::from_spec(&method)?;
+    let h: f64 = item(&method, "h")?;
+    let flat = |a: PyReadonlyArray1<f64>| a.as_array().to_vec();
+    let (q0, p0, metric) = (flat(q0), flat(p0), flat(metric));
+    let k = dq0.as_array().nrows();
+    let rows = |a: PyReadonlyArray2<f64>| a.as_array().iter().copied().collect::<Vec<f64>>();
+    let (dq0, dp0) = (rows(dq0), rows(dp0));
+    let request = trigint_core::TangentRequest {
+        n_steps,
+        renormalize_every,
+        sample_every,
+    };
+    let lanczos = Settings {
+        tol,
+        max_iterations,
+    };
+    let mut pending: Option<PyErr> = None;
+    let out = {
+        let mut report = watch::reporter(&progress, &mut pending);
+        py.detach(|| {
+            let mut control = Control {
+                every: progress_every.max(1),
+                report: &mut report,
+            };
+            with_potential!(pot, |p| krylov::tangent(
+                &a,
+                p,
+                &functions,
+                h,
+                lanczos,
+                &q0,
+                &p0,
+                &dq0,
+                &dp0,
+                &metric,
+                &request,
+                &mut control
+            ))
+        })
+    };
+    if let Some(e) = functions.take_error() {
+        return Err(e);
+    }
+    let out = out.map_err(|e| to_py(e, pot))?;
+    crate::tangent::output_dict(py, out, k, n, pending)
+}

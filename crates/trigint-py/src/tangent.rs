@@ -72,7 +72,17 @@ pub fn tangent<'py>(
         })
     };
     let out = out.map_err(|e| to_py(e, pot))?;
-    let n = q0.len();
+    output_dict(py, out, k, q0.len(), pending)
+}
+
+/// A tangent run's output as the dict `tangent` returns.
+pub(crate) fn output_dict(
+    py: Python<'_>,
+    out: trigint_core::TangentOutput,
+    k: usize,
+    n: usize,
+    pending: Option<PyErr>,
+) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("steps", PyArray1::from_slice(py, &out.steps))?;
     let rows = out.log_growth.len();

@@ -12,6 +12,7 @@
 mod csr;
 mod functions;
 mod lanczos;
+mod tangent;
 mod tridiagonal;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,6 +24,7 @@ pub use functions::{
     Filter, Function, MatrixFunctions, Trigonometric, Values, FUNCTIONS, FUNCTION_COUNT,
 };
 pub use lanczos::{Lanczos, Product, MAX_ITERATIONS};
+pub use tangent::tangent;
 pub use tridiagonal::Tridiagonal;
 
 use crate::channels::{channel_count, FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
@@ -164,6 +166,22 @@ impl<'a, P: Potential> Stepper<'a, P> {
         p_next: &mut [f64],
         g_next: &mut Force,
     ) -> CoreResult<Result<(), Stop>> {
+        self.step_with(q, p, g, q_next, p_next, g_next, |s, q, out| s.force(q, out))
+    }
+
+    /// [`step`](Self::step) with the force at q_next given by `force` (the tangent step passes
+    /// the force's derivative along a deviation: the step is linear in everything else).
+    #[allow(clippy::too_many_arguments)]
+    fn step_with(
+        &mut self,
+        q: &[f64],
+        p: &[f64],
+        g: &Force,
+        q_next: &mut [f64],
+        p_next: &mut [f64],
+        g_next: &mut Force,
+        mut force: impl FnMut(&mut Self, &[f64], &mut Force) -> CoreResult<Result<(), Stop>>,
+    ) -> CoreResult<Result<(), Stop>> {
         let h = self.h;
         let (mut fq, mut fp) = (std::mem::take(&mut self.fq), std::mem::take(&mut self.fp));
         let r = (|| -> CoreResult<Result<(), Stop>> {
@@ -183,7 +201,7 @@ impl<'a, P: Potential> Stepper<'a, P> {
             for i in 0..q.len() {
                 q_next[i] = q[i] - fq[0][i] + h * fp[1][i] + half_h2 * g.psi[i];
             }
-            if let Err(s) = self.force(q_next, g_next)? {
+            if let Err(s) = force(self, q_next, g_next)? {
                 return Ok(Err(s));
             }
             let half_h = 0.5 * h;

@@ -13,7 +13,10 @@ mod bundle;
 mod hot;
 mod lanes;
 mod record;
+mod renormalize;
 pub mod tangent;
+pub(crate) use renormalize::{check_tangent, Renormalizer};
+pub use renormalize::{TangentOutput, TangentRequest};
 
 use crate::coefficients::MethodCoefficients;
 use crate::error::{CoreError, CoreResult};

@@ -19,46 +19,15 @@
 //! for a permutation or an orthogonal basis).
 
 use super::bundle::CHECK;
+use super::renormalize::{check_tangent, Renormalizer, TangentOutput, TangentRequest};
 use super::{check_state, Control};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
 use crate::energy::at;
-use crate::error::{CoreError, CoreResult};
+use crate::error::CoreResult;
 use crate::output::Status;
 use crate::potential::{Potential, Scratch};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Dynamic, Layout, Shape, Storage};
-
-/// What a tangent run is asked for.
-#[derive(Clone, Debug)]
-pub struct TangentRequest {
-    pub n_steps: u64,
-    /// Steps between re-orthonormalizations; 0: never (the raw tangent map, for checking it).
-    pub renormalize_every: u64,
-    /// A sample is recorded at every re-orthonormalization whose step is a multiple of this
-    /// (and at the last step).
-    pub sample_every: u64,
-}
-
-/// The result of a tangent run, in the core's coordinates.
-#[derive(Clone, Debug)]
-pub struct TangentOutput {
-    /// Steps of the samples.
-    pub steps: Vec<u64>,
-    /// Per sample, Σ ln R_jj of each vector up to that step (divide by t for the exponents).
-    pub log_growth: Vec<Vec<f64>>,
-    /// Per sample, the time-averaged MEGNO ⟨Y⟩ of the first vector.
-    pub megno: Vec<f64>,
-    /// The deviations at the last step reached (K × n each): orthonormal when renormalizing,
-    /// else the tangent map applied to the initial ones.
-    pub dq: Vec<f64>,
-    pub dp: Vec<f64>,
-    /// The state at the last step reached (q_n, p_n).
-    pub q: Vec<f64>,
-    pub p: Vec<f64>,
-    pub steps_done: u64,
-    pub status: Status,
-    pub message: String,
-}
 
 /// The deviation vectors: per vector δq and δd (at step n + 1 once a step is taken), and the
 /// δq_n, δp_n that step completed.
@@ -74,25 +43,6 @@ struct Deviations {
 impl Deviations {
     fn vector(v: &mut [f64], j: usize, n: usize) -> &mut [f64] {
         &mut v[j * n..(j + 1) * n]
-    }
-}
-
-/// MEGNO of the first vector over the renormalization times t_i:
-/// Y(t_k) = (2/t_k) Σ_{i≤k} t_i ln(‖δ(t_i)‖/‖δ(t_{i−1})‖), ⟨Y⟩(t_k) = (1/t_k) Σ_{i≤k} Y(t_i)(t_i − t_{i−1}).
-#[derive(Default)]
-struct Megno {
-    weighted: f64,
-    integral: f64,
-    last_t: f64,
-}
-
-impl Megno {
-    fn add(&mut self, t: f64, log_growth: f64) -> f64 {
-        self.weighted += t * log_growth;
-        let y = 2.0 * self.weighted / t;
-        self.integral += y * (t - self.last_t);
-        self.last_t = t;
-        self.integral / t
     }
 }
 
@@ -120,37 +70,7 @@ pub fn tangent<P: Potential>(
     method.validate(n, true)?;
     check_state("q0", q0, n, "")?;
     check_state("p0", p0, n, "")?;
-    if request.n_steps == 0 {
-        return Err(CoreError::invalid("n_steps", "must be >= 1"));
-    }
-    if request.sample_every == 0 {
-        return Err(CoreError::invalid("sample_every", "must be >= 1"));
-    }
-    if dq0.is_empty() || !dq0.len().is_multiple_of(n) || dp0.len() != dq0.len() {
-        return Err(CoreError::invalid(
-            "deviation",
-            format!(
-                "expected K x {n} values in each of dq0 and dp0, got {} and {}",
-                dq0.len(),
-                dp0.len()
-            ),
-        ));
-    }
-    let k = dq0.len() / n;
-    if k > 2 * n {
-        return Err(CoreError::invalid(
-            "n_exponents",
-            format!("at most 2n = {} deviation vectors, got {k}", 2 * n),
-        ));
-    }
-    check_state("deviation", dq0, k * n, "dq0: ")?;
-    check_state("deviation", dp0, k * n, "dp0: ")?;
-    if metric.len() != n || metric.iter().any(|w| !(w.is_finite() && *w > 0.0)) {
-        return Err(CoreError::invalid(
-            "metric",
-            format!("expected {n} finite positive weights"),
-        ));
-    }
+    let k = check_tangent(n, dq0, dp0, metric, request)?;
     Run::new(
         pot,
         layout.dynamic(),
@@ -184,7 +104,6 @@ struct Run<'a, P: Potential> {
     x: Vec<f64>,
     phi_v: Vec<f64>,
     gv: Vec<f64>,
-    out: TangentOutput,
 }
 
 impl<'a, P: Potential> Run<'a, P> {
@@ -227,18 +146,6 @@ impl<'a, P: Potential> Run<'a, P> {
             x: vec![0.0; n],
             phi_v: vec![0.0; n],
             gv: vec![0.0; k * n],
-            out: TangentOutput {
-                steps: Vec::new(),
-                log_growth: Vec::new(),
-                megno: Vec::new(),
-                dq: Vec::new(),
-                dp: Vec::new(),
-                q: Vec::new(),
-                p: Vec::new(),
-                steps_done: 0,
-                status: Status::Completed,
-                message: String::new(),
-            },
             sh,
         })
     }
@@ -348,68 +255,9 @@ impl<'a, P: Potential> Run<'a, P> {
         }
     }
 
-    fn dot(&self, x: &[f64], y: &[f64], u: &[f64], v: &[f64]) -> f64 {
-        let w = self.metric;
-        let mut s = 0.0;
-        for i in 0..self.dev.n {
-            s += w[i] * (x[i] * y[i] + u[i] * v[i]);
-        }
-        s
-    }
-
-    /// Modified Gram–Schmidt on the vectors (δq_n, δp_n), the same combinations applied to
-    /// their continuation (δq_{n+1}, δd_{n+1}); returns ln R_jj.
-    fn orthonormalize(&mut self) -> Vec<f64> {
-        let (k, n) = (self.dev.k, self.dev.n);
-        let mut yq = std::mem::take(&mut self.dev.prev_q);
-        let mut logs = vec![0.0; k];
-        for j in 0..k {
-            for i in 0..j {
-                let r = {
-                    let (qi, qj) = (&yq[i * n..(i + 1) * n], &yq[j * n..(j + 1) * n]);
-                    let (pi, pj) = (
-                        &self.dev.dp[i * n..(i + 1) * n],
-                        &self.dev.dp[j * n..(j + 1) * n],
-                    );
-                    self.dot(qi, qj, pi, pj)
-                };
-                for v in [
-                    &mut yq,
-                    &mut self.dev.dp,
-                    &mut self.dev.dq,
-                    &mut self.dev.dd,
-                ] {
-                    for t in 0..n {
-                        v[j * n + t] -= r * v[i * n + t];
-                    }
-                }
-            }
-            let norm = {
-                let (qj, pj) = (&yq[j * n..(j + 1) * n], &self.dev.dp[j * n..(j + 1) * n]);
-                self.dot(qj, qj, pj, pj).sqrt()
-            };
-            logs[j] = norm.ln();
-            for v in [
-                &mut yq,
-                &mut self.dev.dp,
-                &mut self.dev.dq,
-                &mut self.dev.dd,
-            ] {
-                for t in 0..n {
-                    v[j * n + t] /= norm;
-                }
-            }
-        }
-        self.dev.prev_q = yq;
-        logs
-    }
-
     fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
-        let (n, k) = (self.dev.n, self.dev.k);
-        let h = self.k.h;
-        debug_assert!(k >= 1);
-        let mut sums = vec![0.0; k];
-        let mut megno = Megno::default();
+        let n = self.dev.n;
+        let mut book = Renormalizer::new(self.dev.k, n, self.metric, self.k.h, request);
         self.forces()?;
         recursion::two_step_start(&self.sh, &self.k, &mut self.st);
         self.start();
@@ -433,47 +281,39 @@ impl<'a, P: Potential> Run<'a, P> {
                 &mut [],
             );
             self.step();
-            // A NaN or an infinity never leaves the recursion: a test every CHECK steps (and at
-            // the samples) finds one.
-            let test = reported || step.is_multiple_of(CHECK);
-            let last = step == request.n_steps;
-            let renormalize = request.renormalize_every > 0
-                && (step.is_multiple_of(request.renormalize_every) || last);
-            let finite = !(test || renormalize)
-                || (self.st.q.get().iter().all(|x| x.is_finite())
-                    && self.dev.dq.iter().all(|x| x.is_finite()));
-            if !finite {
-                self.out.status = Status::BlowUp;
-                self.out.message = format!(
-                    "the trajectory or a deviation is not finite at step {step} (t = {}) or \
-                     shortly before: stopped, keeping the samples before it",
-                    step as f64 * h
+            // A NaN or an infinity never leaves the recursion: a test every CHECK steps (and
+            // where the vectors are used) finds one.
+            let renormalize = book.due(step);
+            let test = reported || renormalize || step.is_multiple_of(CHECK);
+            if test
+                && !(self.st.q.get().iter().all(|x| x.is_finite())
+                    && self.dev.dq.iter().all(|x| x.is_finite()))
+            {
+                book.blow_up(
+                    step,
+                    "the trajectory or a deviation (at this step or shortly before)",
                 );
                 break;
             }
-            self.out.steps_done = step;
+            book.out.steps_done = step;
             if renormalize {
-                let logs = self.orthonormalize();
-                for (s, l) in sums.iter_mut().zip(&logs) {
-                    *s += l;
-                }
-                let y = megno.add(step as f64 * h, logs[0]);
-                if step.is_multiple_of(request.sample_every) || last {
-                    self.out.steps.push(step);
-                    self.out.log_growth.push(sums.clone());
-                    self.out.megno.push(y);
-                }
+                let dev = &mut self.dev;
+                book.renormalize(
+                    step,
+                    &mut dev.prev_q,
+                    &mut dev.dp,
+                    &mut [&mut dev.dq, &mut dev.dd],
+                );
             }
             if step.is_multiple_of(every) && !(control.report)(step) {
-                self.out.status = Status::Interrupted;
-                self.out.message = format!("interrupted at step {step}");
+                book.interrupt(step);
                 break;
             }
         }
         // The state at the last step reached: q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ),
-        // an observing step's numbers. After a blow-up, the state before the failing step.
+        // an observing step's numbers.
         let mut p = vec![0.0; n];
-        if self.out.status == Status::BlowUp {
+        if book.out.status == Status::BlowUp {
             // The last finite state is not kept (only every CHECK steps is one tested): the
             // samples before the blow-up are what the run has.
             p.fill(f64::NAN);
@@ -481,11 +321,12 @@ impl<'a, P: Potential> Run<'a, P> {
         } else {
             recursion::momenta_after_step(&self.sh, &self.k, self.st.d.get(), &self.prev_d, &mut p);
         }
-        self.out.q = std::mem::take(&mut self.prev_q);
-        self.out.p = p;
-        self.out.dq = std::mem::take(&mut self.dev.prev_q);
-        self.out.dp = std::mem::take(&mut self.dev.dp);
-        Ok(self.out)
+        let mut out = book.out;
+        out.q = std::mem::take(&mut self.prev_q);
+        out.p = p;
+        out.dq = std::mem::take(&mut self.dev.prev_q);
+        out.dp = std::mem::take(&mut self.dev.dp);
+        Ok(out)
     }
 }
 

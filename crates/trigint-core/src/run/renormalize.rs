@@ -1,0 +1,231 @@
+//! What every tangent run shares, whatever its step: the request and the output, the checks of
+//! the deviations, and the bookkeeping of Benettin's method (Benettin, Galgani, Giorgilli,
+//! Strelcyn 1980): modified Gram–Schmidt of the deviation vectors in the caller's metric every
+//! `renormalize_every` steps, Σ ln R_jj per vector, the MEGNO of the first (Cincotta, Simó 2000)
+//! and the samples. A step kind brings its own deviation recursion and hands its vectors here.
+
+use super::check_state;
+use crate::error::{CoreError, CoreResult};
+use crate::output::Status;
+
+/// What a tangent run is asked for.
+#[derive(Clone, Debug)]
+pub struct TangentRequest {
+    pub n_steps: u64,
+    /// Steps between re-orthonormalizations; 0: never (the raw tangent map, for checking it).
+    pub renormalize_every: u64,
+    /// A sample is recorded at every re-orthonormalization whose step is a multiple of this
+    /// (and at the last step).
+    pub sample_every: u64,
+}
+
+/// The result of a tangent run, in the core's coordinates.
+#[derive(Clone, Debug)]
+pub struct TangentOutput {
+    /// Steps of the samples.
+    pub steps: Vec<u64>,
+    /// Per sample, Σ ln R_jj of each vector up to that step (divide by t for the exponents).
+    pub log_growth: Vec<Vec<f64>>,
+    /// Per sample, the time-averaged MEGNO ⟨Y⟩ of the first vector.
+    pub megno: Vec<f64>,
+    /// The deviations at the last step reached (K × n each): orthonormal when renormalizing,
+    /// else the tangent map applied to the initial ones.
+    pub dq: Vec<f64>,
+    pub dp: Vec<f64>,
+    /// The state at the last step reached (q_n, p_n).
+    pub q: Vec<f64>,
+    pub p: Vec<f64>,
+    pub steps_done: u64,
+    pub status: Status,
+    pub message: String,
+}
+
+/// MEGNO of the first vector over the renormalization times t_i:
+/// Y(t_k) = (2/t_k) Σ_{i≤k} t_i ln(‖δ(t_i)‖/‖δ(t_{i−1})‖), ⟨Y⟩(t_k) = (1/t_k) Σ_{i≤k} Y(t_i)(t_i − t_{i−1}).
+#[derive(Default)]
+struct Megno {
+    weighted: f64,
+    integral: f64,
+    last_t: f64,
+}
+
+impl Megno {
+    fn add(&mut self, t: f64, log_growth: f64) -> f64 {
+        self.weighted += t * log_growth;
+        let y = 2.0 * self.weighted / t;
+        self.integral += y * (t - self.last_t);
+        self.last_t = t;
+        self.integral / t
+    }
+}
+
+/// Checks a tangent run's deviations (K × n rows each), metric and request; returns K.
+pub(crate) fn check_tangent(
+    n: usize,
+    dq0: &[f64],
+    dp0: &[f64],
+    metric: &[f64],
+    request: &TangentRequest,
+) -> CoreResult<usize> {
+    if request.n_steps == 0 {
+        return Err(CoreError::invalid("n_steps", "must be >= 1"));
+    }
+    if request.sample_every == 0 {
+        return Err(CoreError::invalid("sample_every", "must be >= 1"));
+    }
+    if dq0.is_empty() || !dq0.len().is_multiple_of(n) || dp0.len() != dq0.len() {
+        return Err(CoreError::invalid(
+            "deviation",
+            format!(
+                "expected K x {n} values in each of dq0 and dp0, got {} and {}",
+                dq0.len(),
+                dp0.len()
+            ),
+        ));
+    }
+    let k = dq0.len() / n;
+    if k > 2 * n {
+        return Err(CoreError::invalid(
+            "n_exponents",
+            format!("at most 2n = {} deviation vectors, got {k}", 2 * n),
+        ));
+    }
+    check_state("deviation", dq0, k * n, "dq0: ")?;
+    check_state("deviation", dp0, k * n, "dp0: ")?;
+    if metric.len() != n || metric.iter().any(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(CoreError::invalid(
+            "metric",
+            format!("expected {n} finite positive weights"),
+        ));
+    }
+    Ok(k)
+}
+
+/// Benettin's bookkeeping of one run.
+pub(crate) struct Renormalizer<'m> {
+    k: usize,
+    n: usize,
+    metric: &'m [f64],
+    h: f64,
+    request: TangentRequest,
+    sums: Vec<f64>,
+    logs: Vec<f64>,
+    megno: Megno,
+    pub(crate) out: TangentOutput,
+}
+
+impl<'m> Renormalizer<'m> {
+    pub(crate) fn new(
+        k: usize,
+        n: usize,
+        metric: &'m [f64],
+        h: f64,
+        request: &TangentRequest,
+    ) -> Self {
+        Renormalizer {
+            k,
+            n,
+            metric,
+            h,
+            request: request.clone(),
+            sums: vec![0.0; k],
+            logs: vec![0.0; k],
+            megno: Megno::default(),
+            out: TangentOutput {
+                steps: Vec::new(),
+                log_growth: Vec::new(),
+                megno: Vec::new(),
+                dq: Vec::new(),
+                dp: Vec::new(),
+                q: Vec::new(),
+                p: Vec::new(),
+                steps_done: 0,
+                status: Status::Completed,
+                message: String::new(),
+            },
+        }
+    }
+
+    /// Whether the vectors are re-orthonormalized at `step`.
+    #[inline(always)]
+    pub(crate) fn due(&self, step: u64) -> bool {
+        self.request.renormalize_every > 0
+            && (step.is_multiple_of(self.request.renormalize_every) || step == self.request.n_steps)
+    }
+
+    fn dot(&self, x: &[f64], y: &[f64], u: &[f64], v: &[f64]) -> f64 {
+        let w = self.metric;
+        let mut s = 0.0;
+        for i in 0..self.n {
+            s += w[i] * (x[i] * y[i] + u[i] * v[i]);
+        }
+        s
+    }
+
+    /// Modified Gram–Schmidt on the vectors (rows of `yq`, `yp`, K × n) in the metric, the same
+    /// combinations applied to the rows of each of `extra` (what else of a vector the step
+    /// carries: the recursion is linear in the deviation, so this is exact); then Σ ln R_jj,
+    /// the MEGNO and, when due, a sample.
+    pub(crate) fn renormalize(
+        &mut self,
+        step: u64,
+        yq: &mut [f64],
+        yp: &mut [f64],
+        extra: &mut [&mut [f64]],
+    ) {
+        let n = self.n;
+        for j in 0..self.k {
+            for i in 0..j {
+                let r = self.dot(
+                    &yq[i * n..(i + 1) * n],
+                    &yq[j * n..(j + 1) * n],
+                    &yp[i * n..(i + 1) * n],
+                    &yp[j * n..(j + 1) * n],
+                );
+                for v in [&mut *yq, &mut *yp]
+                    .into_iter()
+                    .chain(extra.iter_mut().map(|e| &mut **e))
+                {
+                    for t in 0..n {
+                        v[j * n + t] -= r * v[i * n + t];
+                    }
+                }
+            }
+            let (qj, pj) = (&yq[j * n..(j + 1) * n], &yp[j * n..(j + 1) * n]);
+            let norm = self.dot(qj, qj, pj, pj).sqrt();
+            self.logs[j] = norm.ln();
+            for v in [&mut *yq, &mut *yp]
+                .into_iter()
+                .chain(extra.iter_mut().map(|e| &mut **e))
+            {
+                for x in &mut v[j * n..(j + 1) * n] {
+                    *x /= norm;
+                }
+            }
+        }
+        for (s, l) in self.sums.iter_mut().zip(&self.logs) {
+            *s += l;
+        }
+        let y = self.megno.add(step as f64 * self.h, self.logs[0]);
+        if step.is_multiple_of(self.request.sample_every) || step == self.request.n_steps {
+            self.out.steps.push(step);
+            self.out.log_growth.push(self.sums.clone());
+            self.out.megno.push(y);
+        }
+    }
+
+    /// Ends the run at a non-finite state found at `step`.
+    pub(crate) fn blow_up(&mut self, step: u64, what: &str) {
+        self.out.status = Status::BlowUp;
+        self.out.message = format!(
+            "{what} is not finite at step {step} (t = {}): stopped, keeping the samples before it",
+            step as f64 * self.h
+        );
+    }
+
+    /// Ends the run on a stop request at `step`.
+    pub(crate) fn interrupt(&mut self, step: u64) {
+        self.out.status = Status::Interrupted;
+        self.out.message = format!("interrupted at step {step}");
+    }
+}
