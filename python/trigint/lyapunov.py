@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _check
 from ._method_names import resolve_method
-from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
+from .integrate import checked_state, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 
