@@ -82,17 +82,15 @@ class Recursion:
         """None: the energies come from the core's channels at the frequencies."""
         return None
 
-    def tangent(self, problem, method, h: float, potential, q0, p0, dq0, dp0, n_steps: int, renormalize_every: int,
-                sample_every: int, every: int, callback) -> dict:
+    def tangent(self, problem, method, co, h: float, potential, q0, p0, dq0, dp0, n_steps: int,
+                renormalize_every: int, sample_every: int, every: int, callback) -> dict:
         """One trajectory with deviation vectors (rows of dq0, dp0) carried by the tangent step
-        of the two-step recursion (``_core.tangent``); `potential` the built potential in the
-        core's coordinates, or None for the problem's. Everything in and out in the user's
-        coordinates, whose Euclidean norm the core's metric reproduces (the maps are orthogonal:
-        a permutation, a modal basis, or the Fourier map with SᵀS = N·I)."""
-        from .integrate import method_coefficients
-
+        of the two-step recursion (``_core.tangent``), with the coefficients `co` (two-step form);
+        `potential` the built potential in the core's coordinates, or None for the problem's.
+        Everything in and out in the user's coordinates, whose Euclidean norm the core's metric
+        reproduces (the maps are orthogonal: a permutation, a modal basis, or the Fourier map
+        with SᵀS = N·I)."""
         lay = _native.core_layout(problem)
-        co = method_coefficients(problem, method, h, "two-step")
         if potential is None:
             potential = _native.problem_potential(problem, lay)
         if lay.transform is None:
@@ -148,8 +146,8 @@ class Krylov:
         return {"stiffness_indptr": a.indptr, "stiffness_indices": a.indices, "stiffness_data": a.data,
                 "krylov_tolerance": problem.krylov_tolerance}
 
-    def tangent(self, problem, method, h: float, potential, q0, p0, dq0, dp0, n_steps: int, renormalize_every: int,
-                sample_every: int, every: int, callback) -> dict:
+    def tangent(self, problem, method, co, h: float, potential, q0, p0, dq0, dp0, n_steps: int,
+                renormalize_every: int, sample_every: int, every: int, callback) -> dict:
         """The tangent step of the one-step form with the Lanczos products (``_core.tangent_krylov``),
         in the user's coordinates (the only ones here)."""
         spec = _krylov.stiffness_spec(problem)

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _check
 from ._method_names import resolve_method
-from .integrate import checked_state, positive_int, progress_callback, resolve_steps
+from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 
@@ -358,11 +358,13 @@ class _TangentRun:
                 self.second_derivatives = "central differences"
                 differenced = True
         self.potential = problem.stepper.tangent_potential(problem, differenced)
+        # the recursion's coefficients (two-step form), kept per problem as integrate() keeps them
+        self.co = method_coefficients(problem, method, h, "two-step") if problem.stepper.has_spectrum else None
 
     def call(self, q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, callback):
         every = 1 << 10 if self.slow else 1 << 16
-        out = self.problem.stepper.tangent(self.problem, self.method, self.h, self.potential, q0, p0, dq0, dp0,
-                                           n_steps, renormalize_every, sample_every, every, callback)
+        out = self.problem.stepper.tangent(self.problem, self.method, self.co, self.h, self.potential, q0, p0, dq0,
+                                           dp0, n_steps, renormalize_every, sample_every, every, callback)
         if out["interrupted_by"] is not None and "KeyboardInterrupt" not in out["interrupted_by"]:
             raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
         return out

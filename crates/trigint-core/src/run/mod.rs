@@ -14,7 +14,6 @@ mod hot;
 mod lanes;
 mod record;
 mod renormalize;
-pub mod tangent;
 pub(crate) use renormalize::{check_tangent, Renormalizer};
 pub use renormalize::{TangentOutput, TangentRequest};
 
@@ -77,6 +76,9 @@ macro_rules! with_shape {
         }
     }};
 }
+
+// After `with_shape!`, which it uses.
+pub mod tangent;
 
 /// A state of `n` finite numbers, or the error that names it (`which`: which trajectory).
 pub(crate) fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) -> CoreResult<()> {

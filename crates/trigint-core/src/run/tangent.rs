@@ -20,29 +20,59 @@
 
 use super::bundle::CHECK;
 use super::renormalize::{check_tangent, Renormalizer, TangentOutput, TangentRequest};
-use super::{check_state, Control};
+use super::{check_state, uniform, Control};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
-use crate::energy::at;
 use crate::error::CoreResult;
 use crate::output::Status;
 use crate::potential::{Potential, Scratch};
+use crate::real::{Real, Scalar};
 use crate::recursion::{self, Observe, State};
-use crate::shape::{Dynamic, Layout, Shape, Storage};
+use crate::shape::{Fixed, Layout, Shape, Storage};
 
-/// The deviation vectors: per vector δq and δd (at step n + 1 once a step is taken), and the
-/// δq_n, δp_n that step completed.
+/// The deviation vectors (K × n each): δq and δd (at step n + 1 once a step is taken), the δp_n
+/// that step completed, and δq_n.
 struct Deviations {
     k: usize,
-    n: usize,
     dq: Vec<f64>,
     dd: Vec<f64>,
     dp: Vec<f64>,
     prev_q: Vec<f64>,
 }
 
-impl Deviations {
-    fn vector(v: &mut [f64], j: usize, n: usize) -> &mut [f64] {
-        &mut v[j * n..(j + 1) * n]
+/// The tangent's own copy of the method's numbers, per coordinate (in f64 whatever the lane
+/// type of the trajectory).
+struct Rows {
+    h: f64,
+    h2: f64,
+    half_h2: f64,
+    inv_2h: f64,
+    two_omc: Vec<f64>,
+    h2_psi: Vec<f64>,
+    inv_2h_chi: Vec<f64>,
+    omc: Vec<f64>,
+    h_chi: Vec<f64>,
+    half_h2_psi: Vec<f64>,
+    phi: Vec<f64>,
+}
+
+impl Rows {
+    fn new(layout: &Layout, method: &MethodCoefficients) -> Self {
+        let dynamic = layout.dynamic();
+        let k: Coef<f64, Vec<f64>> = Coef::new(&dynamic, &[method]);
+        let per = |r: &Vec<f64>| (0..dynamic.n()).map(|i| r[dynamic.coef(i)]).collect();
+        Rows {
+            h: k.h,
+            h2: k.h2,
+            half_h2: k.half_h2,
+            inv_2h: k.inv_2h,
+            two_omc: per(&k.two_omc),
+            h2_psi: per(&k.h2_psi),
+            inv_2h_chi: per(&k.inv_2h_chi),
+            omc: per(&k.omc),
+            h_chi: per(&k.h_chi),
+            half_h2_psi: per(&k.half_h2_psi),
+            phi: per(&k.phi),
+        }
     }
 }
 
@@ -50,7 +80,9 @@ impl Deviations {
 /// the core's coordinates), re-orthonormalized every `renormalize_every` steps in the metric
 /// `metric` (n weights, applied to δq and δp alike). `control.report` is called every
 /// `control.every` steps and may stop the run (status "interrupted"). A trajectory or a
-/// deviation that turns non-finite ends the run ("blown_up") with what was recorded before.
+/// deviation that turns non-finite ends the run ("blow-up") with what was recorded before. The
+/// trajectory runs on the shape `integrate` gives it (compile-time sizes for the small uniform
+/// ones, its state in registers).
 #[allow(clippy::too_many_arguments)]
 pub fn tangent<P: Potential>(
     pot: &P,
@@ -71,224 +103,260 @@ pub fn tangent<P: Potential>(
     check_state("q0", q0, n, "")?;
     check_state("p0", p0, n, "")?;
     let k = check_tangent(n, dq0, dp0, metric, request)?;
-    Run::new(
-        pot,
-        layout.dynamic(),
-        method,
-        q0,
-        p0,
-        dq0,
-        dp0,
-        metric,
+    let dev = Deviations {
         k,
-        layout.omega2.clone(),
-    )?
-    .go(request, control)
+        dq: dq0.to_vec(),
+        dd: vec![0.0; k * n],
+        dp: dp0.to_vec(),
+        prev_q: dq0.to_vec(),
+    };
+    let rows = Rows::new(layout, method);
+    with_shape!(layout, &[method], |sh, One| {
+        Run::<P, One, _>::new(pot, sh, layout, method, q0, p0, dev, rows, metric)
+            .go(request, control)
+    })
 }
 
-struct Run<'a, P: Potential> {
+struct Run<'a, P: Potential, L: Real, Sh: Shape> {
     pot: &'a P,
-    sh: Dynamic,
-    k: Coef<f64, Vec<f64>>,
+    sh: &'a Sh,
+    k: Coef<L, Sh::S<L>>,
     /// The two-step sweep reads its weights' rows (unused when it observes nothing).
-    w: Weights<f64, Vec<f64>>,
-    /// q_n and d_n before the step that takes the state to n + 1.
-    prev_q: Vec<f64>,
-    prev_d: Vec<f64>,
-    ws: P::Workspace<f64>,
+    w: Weights<L, Sh::S<L>>,
+    t: Rows,
+    /// q_n and d_n before the step that takes the state to n + 1 (kept where a stop can come).
+    prev_q: Vec<L>,
+    prev_d: Vec<L>,
+    ws: P::Workspace<L>,
+    ws64: P::Workspace<f64>,
     scratch: Scratch,
-    st: State<f64, Dynamic>,
+    st: State<L, Sh>,
     dev: Deviations,
     metric: &'a [f64],
-    /// φq_n, φδq and G(φq_n)φδq of one vector.
+    /// φq_n, φδq and G(φq_n)φδq of the vectors.
     x: Vec<f64>,
     phi_v: Vec<f64>,
     gv: Vec<f64>,
 }
 
-impl<'a, P: Potential> Run<'a, P> {
+impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
     #[allow(clippy::too_many_arguments)]
     fn new(
         pot: &'a P,
-        sh: Dynamic,
+        sh: &'a Sh,
+        layout: &Layout,
         method: &MethodCoefficients,
         q0: &[f64],
         p0: &[f64],
-        dq0: &[f64],
-        dp0: &[f64],
+        dev: Deviations,
+        t: Rows,
         metric: &'a [f64],
-        k: usize,
-        layout_omega2: Vec<f64>,
-    ) -> CoreResult<Self> {
+    ) -> Self {
         let n = sh.n();
-        let coef = Coef::new(&sh, &[method]);
-        let mut st = State::new(&sh);
-        st.q.get_mut().copy_from_slice(q0);
-        st.p.get_mut().copy_from_slice(p0);
-        Ok(Run {
+        let mut st = State::new(sh);
+        for (a, b) in st.q.get_mut().iter_mut().zip(q0) {
+            *a = L::splat(*b);
+        }
+        for (a, b) in st.p.get_mut().iter_mut().zip(p0) {
+            *a = L::splat(*b);
+        }
+        let k = dev.k;
+        Run {
             pot,
-            ws: pot.workspace::<f64>(),
+            sh,
+            k: Coef::new(sh, &[method]),
+            w: Weights::new(sh, &layout.omega2, &[method]),
+            t,
+            prev_q: vec![L::zero(); n],
+            prev_d: vec![L::zero(); n],
+            ws: pot.workspace::<L>(),
+            ws64: pot.workspace::<f64>(),
             scratch: Scratch::default(),
-            k: coef,
             st,
-            dev: Deviations {
-                k,
-                n,
-                dq: dq0.to_vec(),
-                dd: vec![0.0; k * n],
-                dp: dp0.to_vec(),
-                prev_q: dq0.to_vec(),
-            },
-            w: Weights::new(&sh, &layout_omega2, &[method]),
-            prev_q: q0.to_vec(),
-            prev_d: vec![0.0; n],
+            dev,
             metric,
             x: vec![0.0; n],
             phi_v: vec![0.0; n],
             gv: vec![0.0; k * n],
-            sh,
-        })
+        }
     }
 
     /// g(φq_n) into the state (the force `integrate` evaluates, the same numbers), then
     /// G(φq_n)φδq of every vector into `gv`.
     #[inline(always)]
-    fn forces(&mut self) -> CoreResult<()> {
+    fn forces(&mut self, st: &mut State<L, Sh>) -> CoreResult<()> {
         let phi_identity = self.k.phi_is_identity;
-        let inline = P::INLINE_FORCE && self.pot.inline_force_ready();
+        let inline = Sh::FIXED && P::INLINE_FORCE && self.pot.inline_force_ready();
         recursion::evaluate(
-            &self.sh,
+            self.sh,
             self.pot,
             &mut self.ws,
             &self.k,
-            &mut self.st,
+            st,
             false,
             phi_identity,
             inline,
         )?;
         let n = self.sh.n();
+        let q = L::as_f64s(&st.q.get()[..n]).expect("one lane");
         if phi_identity {
             for j in 0..self.dev.k {
                 let r = j * n..(j + 1) * n;
                 self.pot.force_derivative(
-                    self.st.q.get(),
+                    q,
                     &self.dev.dq[r.clone()],
                     &mut self.gv[r],
-                    &mut self.ws,
+                    &mut self.ws64,
                     &mut self.scratch,
                 )?;
             }
             return Ok(());
         }
-        let ns = self.sh.ns();
-        let phi = self.k.phi.get();
-        let q = self.st.q.get();
+        let phi = &self.t.phi[..n];
         for i in 0..n {
-            self.x[i] = if i < ns {
-                q[i]
-            } else {
-                at(phi, self.sh.coef(i)) * q[i]
-            };
+            self.x[i] = phi[i] * q[i];
         }
         for j in 0..self.dev.k {
-            let v = Deviations::vector(&mut self.dev.dq, j, n);
+            let r = j * n..(j + 1) * n;
+            let v = &self.dev.dq[r.clone()];
             for i in 0..n {
-                self.phi_v[i] = if i < ns {
-                    v[i]
-                } else {
-                    at(phi, self.sh.coef(i)) * v[i]
-                };
+                self.phi_v[i] = phi[i] * v[i];
             }
-            let gv = Deviations::vector(&mut self.gv, j, n);
-            self.pot
-                .force_derivative(&self.x, &self.phi_v, gv, &mut self.ws, &mut self.scratch)?;
+            self.pot.force_derivative(
+                &self.x,
+                &self.phi_v,
+                &mut self.gv[r],
+                &mut self.ws64,
+                &mut self.scratch,
+            )?;
         }
         Ok(())
     }
 
     /// (2.3) on the deviations: δd_1 = −(1 − c)δq_0 + hχ δp_0 + ½h²ψ Gφδq_0, δq_1 = δq_0 + δd_1.
     fn start(&mut self) {
-        let (ns, n, k) = (self.sh.ns(), self.sh.n(), &self.k);
-        let (omc, hchi, half) = (k.omc.get(), k.h_chi.get(), k.half_h2_psi.get());
+        let (ns, n, t) = (self.sh.ns(), self.sh.n(), &self.t);
         for j in 0..self.dev.k {
             let r = j * n..(j + 1) * n;
             let (q, d) = (&mut self.dev.dq[r.clone()], &mut self.dev.dd[r.clone()]);
             let (p, g) = (&self.dev.dp[r.clone()], &self.gv[r]);
             for i in 0..ns {
-                d[i] = k.h * p[i] + k.half_h2 * g[i];
+                d[i] = t.h * p[i] + t.half_h2 * g[i];
                 q[i] += d[i];
             }
             for i in ns..n {
-                let c = self.sh.coef(i);
-                d[i] = -(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * g[i];
+                d[i] = -(t.omc[i] * q[i]) + t.h_chi[i] * p[i] + t.half_h2_psi[i] * g[i];
                 q[i] += d[i];
             }
         }
     }
 
-    /// One tangent step from δq_n, δd_n: δd_{n+1}, δp_n and δq_{n+1}.
-    fn step(&mut self) {
-        let (ns, n, k) = (self.sh.ns(), self.sh.n(), &self.k);
-        let (a, hp, inv) = (k.two_omc.get(), k.h2_psi.get(), k.inv_2h_chi.get());
+    /// One tangent step from δq_n, δd_n: δd_{n+1}, δp_n and δq_{n+1}, keeping δq_n when `keep`
+    /// (where the vectors are read: an event).
+    #[inline(always)]
+    fn step(&mut self, keep: bool) {
+        let (ns, n, t) = (self.sh.ns(), self.sh.n(), &self.t);
+        let (a, hp, inv) = (&t.two_omc[..n], &t.h2_psi[..n], &t.inv_2h_chi[..n]);
         for j in 0..self.dev.k {
             let r = j * n..(j + 1) * n;
-            let (q, d, p) = (
+            let (q, d, p, prev) = (
                 &mut self.dev.dq[r.clone()],
                 &mut self.dev.dd[r.clone()],
                 &mut self.dev.dp[r.clone()],
+                &mut self.dev.prev_q[r.clone()],
             );
-            let g = &self.gv[r.clone()];
-            self.dev.prev_q[r].copy_from_slice(q);
+            let g = &self.gv[r];
+            if keep {
+                prev.copy_from_slice(q);
+            }
             for i in 0..ns {
-                let next = d[i] + k.h2 * g[i];
-                p[i] = (next + d[i]) * k.inv_2h;
+                let next = d[i] + t.h2 * g[i];
+                p[i] = (next + d[i]) * t.inv_2h;
                 d[i] = next;
                 q[i] += next;
             }
             for i in ns..n {
-                let c = self.sh.coef(i);
-                let next = d[i] - at(a, c) * q[i] + at(hp, c) * g[i];
-                p[i] = (next + d[i]) * at(inv, c);
+                let next = d[i] - a[i] * q[i] + hp[i] * g[i];
+                p[i] = (next + d[i]) * inv[i];
                 d[i] = next;
                 q[i] += next;
             }
         }
     }
 
-    fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
-        let n = self.dev.n;
-        let mut book = Renormalizer::new(self.dev.k, n, self.metric, self.k.h, request);
-        self.forces()?;
-        recursion::two_step_start(&self.sh, &self.k, &mut self.st);
-        self.start();
-        let every = control.every.max(1);
-        for step in 1..=request.n_steps {
-            // Step `step` → `step` + 1, which completes (q, p) and (δq, δp) at `step`.
-            self.forces()?;
-            // The state before the step is what a stop at this step reports.
-            let reported = step == request.n_steps || step.is_multiple_of(every);
-            if reported {
-                self.prev_q.copy_from_slice(self.st.q.get());
-                self.prev_d.copy_from_slice(self.st.d.get());
+    /// Steps `from..to` with no event among them (no sample, stop, test or renormalization):
+    /// the state moved into a local, which the compiler keeps in registers on a compile-time
+    /// shape.
+    #[inline(always)]
+    fn quiet(&mut self, from: u64, to: u64) -> CoreResult<()> {
+        let mut st = std::mem::replace(&mut self.st, State::placeholder());
+        let mut r = Ok(());
+        for _ in from..to {
+            if let Err(e) = self.forces(&mut st) {
+                r = Err(e);
+                break;
             }
             recursion::two_step(
-                &self.sh,
+                self.sh,
                 &self.k,
                 &self.w,
-                &mut self.st,
+                &mut st,
                 Observe::No,
                 true,
                 &mut [],
             );
             self.step();
-            // A NaN or an infinity never leaves the recursion: a test every CHECK steps (and
-            // where the vectors are used) finds one.
-            let renormalize = book.due(step);
-            let test = reported || renormalize || step.is_multiple_of(CHECK);
-            if test
-                && !(self.st.q.get().iter().all(|x| x.is_finite())
-                    && self.dev.dq.iter().all(|x| x.is_finite()))
-            {
+        }
+        self.st = st;
+        r
+    }
+
+    fn finite(&self) -> bool {
+        let n = self.sh.n();
+        self.st.q.get()[..n].iter().all(|x| x.lane(0).is_finite())
+            && self.dev.dq.iter().all(|x| x.is_finite())
+    }
+
+    fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
+        let n = self.sh.n();
+        let mut book = Renormalizer::new(self.dev.k, n, self.metric, self.t.h, request);
+        let mut st = std::mem::replace(&mut self.st, State::placeholder());
+        self.forces(&mut st)?;
+        recursion::two_step_start(self.sh, &self.k, &mut st);
+        self.st = st;
+        self.start();
+        let every = control.every.max(1);
+        let renormalize_every = match request.renormalize_every {
+            0 => u64::MAX,
+            r => r,
+        };
+        let mut step = 1;
+        while step <= request.n_steps {
+            // The next step with an event: a renormalization, a test, a report, the last.
+            let up = |s: u64| step.div_ceil(s).saturating_mul(s);
+            let event = up(renormalize_every)
+                .min(up(CHECK))
+                .min(up(every))
+                .min(request.n_steps);
+            self.quiet(step, event)?;
+            // Step `event` → `event` + 1, which completes (q, p) and (δq, δp) at `event`.
+            let mut st = std::mem::replace(&mut self.st, State::placeholder());
+            self.forces(&mut st)?;
+            self.prev_q.copy_from_slice(&st.q.get()[..n]);
+            self.prev_d.copy_from_slice(&st.d.get()[..n]);
+            recursion::two_step(
+                self.sh,
+                &self.k,
+                &self.w,
+                &mut st,
+                Observe::No,
+                true,
+                &mut [],
+            );
+            self.st = st;
+            self.step(true);
+            step = event;
+            if !self.finite() {
                 book.blow_up(
                     step,
                     "the trajectory or a deviation (at this step or shortly before)",
@@ -296,7 +364,7 @@ impl<'a, P: Potential> Run<'a, P> {
                 break;
             }
             book.out.steps_done = step;
-            if renormalize {
+            if book.due(step) {
                 let dev = &mut self.dev;
                 book.renormalize(
                     step,
@@ -309,21 +377,28 @@ impl<'a, P: Potential> Run<'a, P> {
                 book.interrupt(step);
                 break;
             }
+            step += 1;
         }
         // The state at the last step reached: q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ),
         // an observing step's numbers.
-        let mut p = vec![0.0; n];
-        if book.out.status == Status::BlowUp {
+        let mut out = book.out;
+        if out.status == Status::BlowUp {
             // The last finite state is not kept (only every CHECK steps is one tested): the
             // samples before the blow-up are what the run has.
-            p.fill(f64::NAN);
-            self.prev_q.fill(f64::NAN);
+            out.q = vec![f64::NAN; n];
+            out.p = vec![f64::NAN; n];
         } else {
-            recursion::momenta_after_step(&self.sh, &self.k, self.st.d.get(), &self.prev_d, &mut p);
+            let mut p = vec![L::zero(); n];
+            recursion::momenta_after_step(
+                self.sh,
+                &self.k,
+                &self.st.d.get()[..n],
+                &self.prev_d,
+                &mut p,
+            );
+            out.q = self.prev_q.iter().map(|x| x.lane(0)).collect();
+            out.p = p.iter().map(|x| x.lane(0)).collect();
         }
-        let mut out = book.out;
-        out.q = std::mem::take(&mut self.prev_q);
-        out.p = p;
         out.dq = std::mem::take(&mut self.dev.prev_q);
         out.dp = std::mem::take(&mut self.dev.dp);
         Ok(out)
