@@ -305,7 +305,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
                 true,
                 &mut [],
             );
-            self.step();
+            self.step(false);
         }
         self.st = st;
         r
