@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import json
 import os
 import platform
 import shutil
@@ -66,15 +67,80 @@ def kernel_isa() -> str:
     return "AVX2" if "avx2" in words and cap not in ("baseline", "sse2") else "SSE2"
 
 
-def compile_c(name: str) -> Path:
+def compile_c(name: str, flags: list[str] | None = None, suffix: str = "") -> Path:
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         raise RuntimeError("no C compiler (cc) found; the C baselines need one")
     BUILD.mkdir(exist_ok=True)
-    exe = BUILD / name
-    subprocess.run([cc, "-O3", "-march=native", *c_isa_flags(), "-o", str(exe), str(HERE / "c" / f"{name}.c"), "-lm"],
+    exe = BUILD / f"{name}{suffix}"
+    flags = c_isa_flags() if flags is None else flags
+    subprocess.run([cc, "-O3", "-march=native", *flags, "-o", str(exe), str(HERE / "c" / f"{name}.c"), "-lm"],
                    check=True)
     return exe
+
+
+#: the C flags that keep a baseline within an instruction-set copy's limits
+C_FLAGS = {"avx512": [], "avx2": ["-mno-avx512f"], "baseline": ["-mno-avx"]}
+
+#: timed in a child process per instruction-set copy (TRIGINT_ISA is read once per process)
+ISA_CHILD = """
+import json, sys, time, numpy as np, trigint as ti
+n, count, steps, repeat = map(int, sys.argv[1:5])
+prob = ti.problems.fpu(m=3, omega=50.0); q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0); h = 2 * np.pi / 3 / 50
+Q0, P0 = ti.perturb(q0, p0, np.linspace(0.0, 1e-3, count))
+wave = ti.problems.wave((1 << 14,), rho=1.0, potential="u**4/4"); (x,) = wave.mesh
+def best(f, work):
+    f()
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter(); f(); out.append((time.perf_counter() - t) / work * 1e9)
+    return min(out)
+print(json.dumps({
+    "streamed": best(lambda: ti.integrate(prob, "B", q0, p0, h=h, n_steps=n, save_every=n, progress=False), n),
+    "untracked": best(lambda: ti.integrate(prob, "B", q0, p0, h=h, n_steps=n, save_every=n, track_energies=False,
+                                           progress=False), n),
+    "lanes": best(lambda: ti.ensemble(prob, "B", Q0, P0, h=h, n_steps=steps, threads=1, chunk_size=count,
+                                      progress=False), count * steps),
+    "wave": best(lambda: ti.integrate(wave, "B", 0.1 * np.cos(x), 0 * x, h=0.01, n_steps=200, save_every=200,
+                                      progress=False), 200) / 1000,
+    "lyapunov": best(lambda: ti.lyapunov(prob, "B", q0, p0, h=h, n_steps=n // 4), n // 4),
+}))
+"""
+
+
+def isa_rows(n: int, count: int, batch_steps: int, repeat: int) -> list[dict]:
+    """Every instruction-set copy the CPU runs (TRIGINT_ISA), and the default (the planner's
+    choice), against the C loops compiled within the same limits."""
+    from trigint._config import config
+
+    rows = []
+    for copy in [None, *config()["copies"]]:
+        env = {k: v for k, v in os.environ.items() if k != "TRIGINT_ISA"}
+        if copy is not None:
+            env["TRIGINT_ISA"] = copy
+        exe = compile_c("fpu_limit", C_FLAGS.get(copy or "", []), f"-{copy or 'native'}")
+        c = {k: statistics.median(c_timer(exe, *a)() for _ in range(repeat))
+             for k, a in (("scalar-tracked", ("scalar-tracked", n)), ("scalar", ("scalar", n)),
+                          ("soa-tracked", ("soa-tracked", count, batch_steps)))}
+        out = subprocess.run([sys.executable, "-c", ISA_CHILD, str(n), str(count), str(batch_steps), str(repeat)],
+                             env=env, check=True, capture_output=True, text=True).stdout
+        t = json.loads(out.strip().splitlines()[-1])
+        rows.append(dict(copy=copy or "default (planner)", c=c, t=t))
+    return rows
+
+
+def isa_table(rows: list[dict]) -> list[str]:
+    out = ["| copy | streamed ns (C `scalar-tracked`) | untracked ns (C `scalar`) | 1000 lanes, 1 thread, ns "
+           "(C `soa-tracked`) | wave 2¹⁴ step µs | leading exponent ns |",
+           "|---|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        c, t = r["c"], r["t"]
+        def cell(ours, base, t=t, c=c):
+            return f"{t[ours]:.2f} ({c[base]:.2f}, {t[ours] / c[base]:.2f}×)"
+
+        out.append(f"| {r['copy']} | {cell('streamed', 'scalar-tracked')} | {cell('untracked', 'scalar')} | "
+                   f"{cell('lanes', 'soa-tracked')} | {t['wave']:.1f} | {t['lyapunov']:.1f} |")
+    return out
 
 
 def isa_cap() -> str | None:
@@ -438,7 +504,7 @@ def tangent_rows(n: int, count: int, repeat: int, smoke: bool) -> list[dict]:
 
 
 def write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, path: Path,
-                 tangents=()) -> None:
+                 tangents=(), isas=()) -> None:
     def table(rows):
         out = ["| workload | baseline | ns | trigint | ns | ratio | target |", "|---|---|---:|---|---:|---:|---:|"]
         for r in rows:
@@ -470,6 +536,15 @@ def write_report(limits, potentials, stiffness, krylov, others, interrupts, wave
         "H_slow and H at every step, as `scalar-tracked` / `soa-tracked` do.",
         "",
         *table(limits),
+        "",
+        "## Every instruction-set copy",
+        "",
+        "The same FPU loops (and a 2¹⁴-point wave step, streamed) in a child process per copy "
+        "(`TRIGINT_ISA`), and with none set (the planner's choice); the C loops compiled within the "
+        "same limits (`-mno-avx512f` for the AVX2 copy, `-mno-avx` for the baseline). ns per "
+        "(trajectory-)step, best of the repetitions; in brackets the C time and trigint / C.",
+        "",
+        *isa_table(isas),
         "",
         "## The user's own potentials",
         "",
@@ -557,9 +632,10 @@ def main(argv=None) -> int:
     waves = (wave_bench.rows(BUILD, args.smoke), wave_bench.scaling(args.smoke))
     interrupts = interrupt_rows(1 if args.smoke else 5)
     tangents = tangent_rows(n, count, repeat, args.smoke)
+    isas = isa_rows(n // 4, count, batch_steps // 4, repeat)
     out = args.out or (BUILD / "results-smoke.md" if args.smoke else HERE / "results.md")
     out.parent.mkdir(exist_ok=True)
-    write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, out, tangents)
+    write_report(limits, potentials, stiffness, krylov, others, interrupts, waves, out, tangents, isas)
     plot(limits + potentials + stiffness, out.with_suffix(".png"))
     print(out.read_text())
     print(f"wrote {out}")

@@ -199,29 +199,37 @@ impl Fpu {
 
 impl Fpu {
     /// G(x)v of the chain in its own variables: with the elongations d_i = ℓ_i·x and
-    /// e_i = ℓ_i·v, the force's cubes d_i³ become 3d_i²e_i and are distributed as in the force.
+    /// e_i = ℓ_i·v, the force's cubes d_i³ become c_i = 3d_i²e_i and are distributed as in the
+    /// force (each spring's c computed once, carried to the next coordinate: no buffer).
     #[inline(always)]
-    fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64], c: &mut Vec<f64>) {
+    fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         let m = self.m;
-        let c = Scratch::sized(c, m + 1);
         let (x0, x1) = x.split_at(m);
         let (v0, v1) = v.split_at(m);
-        let term = |d: f64, e: f64| 3.0 * d * d * e;
-        c[0] = term(x0[0] - x1[0], v0[0] - v1[0]);
-        for i in 1..m {
-            c[i] = term(
-                (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]),
-                (v0[i] - v1[i]) - (v0[i - 1] + v1[i - 1]),
-            );
-        }
-        c[m] = term(x0[m - 1] + x1[m - 1], v0[m - 1] + v1[m - 1]);
         let (f0, f1) = out.split_at_mut(m);
+        let spring = |i: usize| -> f64 {
+            let (d, e) = if i == 0 {
+                (x0[0] - x1[0], v0[0] - v1[0])
+            } else if i == m {
+                (x0[m - 1] + x1[m - 1], v0[m - 1] + v1[m - 1])
+            } else {
+                (
+                    (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]),
+                    (v0[i] - v1[i]) - (v0[i - 1] + v1[i - 1]),
+                )
+            };
+            3.0 * d * d * e
+        };
+        let mut now = spring(0);
         for j in 0..m - 1 {
-            f0[j] = -c[j] + c[j + 1];
-            f1[j] = c[j] + c[j + 1];
+            let next = spring(j + 1);
+            f0[j] = -now + next;
+            f1[j] = now + next;
+            now = next;
         }
-        f0[m - 1] = -c[m - 1] - c[m];
-        f1[m - 1] = c[m - 1] - c[m];
+        let end = spring(m);
+        f0[m - 1] = -now - end;
+        f1[m - 1] = now - end;
     }
 }
 
@@ -290,7 +298,7 @@ impl Potential for Fpu {
         s: &mut Scratch,
     ) -> CoreResult<()> {
         match &self.map {
-            None => self.chain_derivative(x, v, out, &mut s.c),
+            None => self.chain_derivative(x, v, out),
             Some(map) => {
                 // x = M z: G_z v = Mᵀ G(Mz) (M v).
                 let n = 2 * self.m;
@@ -299,7 +307,7 @@ impl Potential for Fpu {
                 map.apply(x, Scratch::sized(&mut xs, n));
                 map.apply(v, Scratch::sized(&mut vs, n));
                 let mut gs = vec![0.0; n];
-                self.chain_derivative(&xs, &vs, &mut gs, &mut s.c);
+                self.chain_derivative(&xs, &vs, &mut gs);
                 out.fill(0.0);
                 map.apply_transpose_add(&gs, out);
                 (s.a, s.b) = (xs, vs);
