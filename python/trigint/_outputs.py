@@ -24,6 +24,8 @@ class Output:
     fill: float | int
     #: kept only when the sweep keeps states (``save_every``)
     per_sample: bool = False
+    #: kept only when the sweep computes Lyapunov exponents (``lyapunov=``)
+    per_exponent: bool = False
 
 
 OUTPUTS = (
@@ -35,17 +37,23 @@ OUTPUTS = (
     Output("q", ("trajectory", "sample", "coordinate"), "float64", np.nan, per_sample=True),
     Output("p", ("trajectory", "sample", "coordinate"), "float64", np.nan, per_sample=True),
     Output("energies", ("trajectory", "sample", "energy"), "float64", np.nan, per_sample=True),
+    Output("lyapunov", ("trajectory", "exponent"), "float64", np.nan, per_exponent=True),
+    Output("megno", ("trajectory",), "float64", np.nan, per_exponent=True),
 )
 
 
-def outputs(with_samples: bool) -> tuple[Output, ...]:
-    """The arrays of a sweep that keeps states (`with_samples`) or only their statistics."""
-    return tuple(o for o in OUTPUTS if with_samples or not o.per_sample)
+def outputs(with_samples: bool, with_exponents: bool = False) -> tuple[Output, ...]:
+    """The arrays of a sweep that keeps states (`with_samples`) or only their statistics, and
+    with Lyapunov exponents or not."""
+    return tuple(o for o in OUTPUTS
+                 if (with_samples or not o.per_sample) and (with_exponents or not o.per_exponent))
 
 
 def shapes(sizes: dict, with_samples: bool) -> dict[str, tuple[tuple[int, ...], str, float | int]]:
-    """name → (shape, dtype, fill) for dimension sizes such as ``{"trajectory": 10, ...}``."""
-    return {o.name: (tuple(sizes[d] for d in o.dims), o.dtype, o.fill) for o in outputs(with_samples)}
+    """name → (shape, dtype, fill) for dimension sizes such as ``{"trajectory": 10, ...}`` (with
+    an ``"exponent"`` size, the Lyapunov arrays too)."""
+    return {o.name: (tuple(sizes[d] for d in o.dims), o.dtype, o.fill)
+            for o in outputs(with_samples, "exponent" in sizes)}
 
 
 def empty(sizes: dict, with_samples: bool) -> dict[str, np.ndarray]:
@@ -55,7 +63,8 @@ def empty(sizes: dict, with_samples: bool) -> dict[str, np.ndarray]:
 
 
 def chunk_rows(out, sizes: dict, with_samples: bool) -> dict[str, np.ndarray]:
-    """A chunk's RunResult as rows of the table (samples padded to ``sizes["sample"]``)."""
+    """A chunk's RunResult as rows of the table (samples padded to ``sizes["sample"]``; the
+    exponents from its ``info`` when ``sizes`` has an ``"exponent"``)."""
     rows = {
         "max_deviation": np.asarray(out.max_deviation, dtype=float),
         "initial_energies": np.asarray(out.initial_energies, dtype=float),
@@ -70,4 +79,7 @@ def chunk_rows(out, sizes: dict, with_samples: bool) -> dict[str, np.ndarray]:
             for name in ("q", "p", "energies"):
                 padded[name][t, :k] = s[name]
         rows.update({o.name: padded[o.name] for o in OUTPUTS if o.per_sample})
+    if "exponent" in sizes:
+        rows["lyapunov"] = np.asarray(out.info["lyapunov"], dtype=float).reshape(len(out.status), sizes["exponent"])
+        rows["megno"] = np.asarray(out.info["megno"], dtype=float)
     return rows

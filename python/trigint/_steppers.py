@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core, _krylov, _native
+from ._deviation import RENORMALIZE_EVERY, default_deviation
 
 
 class Recursion:
@@ -87,26 +88,26 @@ class Recursion:
         """One trajectory with deviation vectors (rows of dq0, dp0) carried by the tangent step
         of the two-step recursion (``_core.tangent``), with the coefficients `co` (two-step form);
         `potential` the built potential in the core's coordinates, or None for the problem's.
-        Everything in and out in the user's coordinates, whose Euclidean norm the core's metric
-        reproduces (the maps are orthogonal: a permutation, a modal basis, or the Fourier map
-        with SᵀS = N·I)."""
+        Everything in and out in the user's coordinates."""
         lay = _native.core_layout(problem)
         if potential is None:
             potential = _native.problem_potential(problem, lay)
-        if lay.transform is None:
-            scale = 1.0
-        else:
-            unit = np.zeros((1, problem.dim))
-            unit[0, 0] = 1.0
-            scale = float(np.sum(lay.to_user(unit) ** 2))
-        out = _core.tangent(
-            potential, lay.spec, _native.method_spec(co, lay, problem.omega > 0), lay.to_core(q0), lay.to_core(p0),
-            np.ascontiguousarray(lay.to_core(dq0)), np.ascontiguousarray(lay.to_core(dp0)),
-            np.full(problem.dim, scale), int(n_steps), int(renormalize_every), int(sample_every), int(every), callback,
-        )
-        for key in ("q", "p", "dq", "dp"):
-            out[key] = lay.to_user(np.asarray(out[key]))
-        return out
+        order = None if lay.identity and lay.basis is None and lay.transform is None else lay
+        return _recursion_tangent(potential, lay.spec, order, _native.method_spec(co, lay, problem.omega > 0),
+                                  q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, every, callback)
+
+    def tangent_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, count: int, threads) -> tuple:
+        """The leading `count` exponents and the MEGNO of each trajectory of a chunk, each as
+        ``trigint.lyapunov`` computes it alone (default deviation, renormalized every 16 steps)."""
+        def one(b):
+            methods = {k: _rows_to_core(order, np.asarray(rows[k][b], dtype=float)) for k in _native.METHOD_ROWS}
+            methods["h"] = float(rows["h"][b])
+            dq0, dp0 = default_deviation(rows["q0"].shape[1], count)
+            return _recursion_tangent(potential_spec, layout_spec, order, methods, rows["q0"][b], rows["p0"][b], dq0,
+                                      dp0, int(rows["n_steps"][b]), RENORMALIZE_EVERY, int(rows["n_steps"][b]),
+                                      1 << 16, None)
+
+        return _exponents(one, rows, threads)
 
     def tangent_potential(self, problem, finite_differences: bool):
         """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
@@ -160,6 +161,21 @@ class Krylov:
             int(renormalize_every), int(sample_every), int(every), callback,
         )
 
+    def tangent_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, count: int, threads) -> tuple:
+        """The leading exponents and the MEGNO of each trajectory of a chunk (see Recursion)."""
+        def one(b):
+            dq0, dp0 = default_deviation(rows["q0"].shape[1], count)
+            h = float(rows["h"][b])
+            return _core.tangent_krylov(
+                potential_spec, layout_spec["n"], layout_spec["indptr"], layout_spec["indices"], layout_spec["data"],
+                _krylov.method_spec(layout_spec["method"], h), layout_spec["tol"], _krylov.MAX_ITERATIONS,
+                np.ascontiguousarray(rows["q0"][b]), np.ascontiguousarray(rows["p0"][b]), dq0, dp0,
+                np.ones(rows["q0"].shape[1]), int(rows["n_steps"][b]), RENORMALIZE_EVERY, int(rows["n_steps"][b]),
+                64, None,
+            )
+
+        return _exponents(one, rows, threads)
+
     def tangent_potential(self, problem, finite_differences: bool):
         """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
         spec = problem.potential.describe(problem.dim)
@@ -179,8 +195,66 @@ RECURSION = Recursion()
 KRYLOV = Krylov()
 
 
+
+def _rows_to_core(order, x):
+    return np.ascontiguousarray(x if order is None else order.rows_to_core(x))
+
+
+def _recursion_tangent(potential, layout_spec: dict, order, method: dict, q0, p0, dq0, dp0, n_steps: int,
+                       renormalize_every: int, sample_every: int, every: int, callback) -> dict:
+    """``_core.tangent`` with states and deviations in the user's coordinates (`order` the map to
+    the core's, None when they are the same), whose Euclidean norm the core's metric reproduces:
+    the maps are orthogonal (a permutation, a modal basis) or the Fourier map, SᵀS = N·I."""
+    def core(x):
+        return np.ascontiguousarray(x if order is None else order.to_core(np.asarray(x, dtype=float)))
+
+    n = np.asarray(q0).shape[-1]
+    scale = 1.0
+    if order is not None and order.transform is not None:
+        unit = np.zeros((1, n))
+        unit[0, 0] = 1.0
+        scale = float(np.sum(order.to_user(unit) ** 2))
+    out = _core.tangent(potential, layout_spec, method, core(q0), core(p0), core(dq0), core(dp0), np.full(n, scale),
+                        int(n_steps), int(renormalize_every), int(sample_every), int(every), callback)
+    if order is not None:
+        for key in ("q", "p", "dq", "dp"):
+            out[key] = order.to_user(np.asarray(out[key]))
+    return out
+
+
+def _exponents(one, rows: dict, threads) -> tuple:
+    """(exponents (B, K), MEGNO (B,)) of a chunk's trajectories, `one(b)` the core's tangent run
+    of trajectory b, on `threads` threads (the core leaves the interpreter while it steps): the
+    exponents at the last step, as ``lyapunov()`` gives them."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    count = len(rows["h"])
+    workers = max(1, min(count, (os.cpu_count() or 1) if threads is None else int(threads)))
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        outs = list(pool.map(one, range(count)))
+    exponents, megno = [], []
+    for b, out in enumerate(outs):
+        steps = np.asarray(out["steps"], dtype=np.int64)
+        growth = np.asarray(out["log_growth"])
+        if steps.size:
+            t = steps * float(rows["h"][b])
+            exponents.append((growth / t[:, None])[-1])
+            megno.append(float(out["megno"][-1]))
+        else:
+            exponents.append(np.full(growth.shape[1], np.nan))
+            megno.append(np.nan)
+    return np.array(exponents), np.array(megno)
+
+
 def run_chunk(stepper, potential_spec, layout_spec: dict, order, rows: dict, save_every: int | None, track: bool,
-              threads: int | None = None, form: str = "two-step"):
+              threads: int | None = None, form: str = "two-step", lyapunov: int | None = None):
     """Runs one chunk of an ensemble with `stepper`. Module-level and free of local state, so that
-    it can be sent to executors and Dask workers. States come back in the user's coordinates."""
-    return stepper.run_chunk(potential_spec, layout_spec, order, rows, save_every, track, threads, form)
+    it can be sent to executors and Dask workers. States come back in the user's coordinates.
+    With `lyapunov`, ``out.info`` also holds each trajectory's leading exponents ("lyapunov") and
+    MEGNO ("megno"), unless the chunk was interrupted."""
+    out = stepper.run_chunk(potential_spec, layout_spec, order, rows, save_every, track, threads, form)
+    if lyapunov is not None and not out.interrupted:
+        out.info["lyapunov"], out.info["megno"] = stepper.tangent_chunk(potential_spec, layout_spec, order, rows,
+                                                                        int(lyapunov), threads)
+    return out

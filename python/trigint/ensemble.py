@@ -85,7 +85,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     lyapunov : int, optional
         Also the leading `lyapunov` finite-time Lyapunov exponents of each trajectory's numerical
         map and its MEGNO (:func:`trigint.lyapunov` on each trajectory alone, the same numbers),
-        as ``lyapunov`` (trajectory, exponent) and ``megno`` (trajectory). Runs on this machine.
+        as ``lyapunov`` (trajectory, exponent) and ``megno`` (trajectory): computed in each chunk
+        beside its run, so on a client and into a store as the rest.
 
     Returns
     -------
@@ -113,7 +114,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
-    _check_lyapunov(lyapunov, problem, client, store)
+    _check_lyapunov(lyapunov, problem)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every, track_energies = saveat.every, saveat.track_energies
     if threads is not None:
@@ -134,8 +135,9 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     _check_sendable(client, problem.potential, args[1].spec)  # args: stepper, potential, layout, map
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
+                  lyapunov=None if lyapunov is None else int(lyapunov),
                   threads=None if threads is None else int(min(threads, count)))
-    sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans)
+    sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans, lyapunov)
     results: dict[int, dict] = {}
     todo = list(range(len(spans)))
     stored: dict[int, dict] = {}
@@ -154,7 +156,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         for i, out in _execute(client, todo, spans, batch, args, kwargs):
             results[i] = out
             if sink is not None and not out.interrupted:
-                sink.write(i, spans[i], _outputs.chunk_rows(out, _sizes(problem, batch, names, save_every),
+                sink.write(i, spans[i], _outputs.chunk_rows(out, _sizes(problem, batch, names, save_every, lyapunov),
                                                             save_every is not None))
             bar.update(1)
             if out.interrupted:
@@ -164,14 +166,13 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         interrupted = True
     finally:
         bar.close()
-    ds = problem.ensemble_dataset(_assemble(problem, method, batch, names, spans, results, stored, save_every))
+    ds = problem.ensemble_dataset(_assemble(problem, method, batch, names, spans, results, stored, save_every,
+                                                  lyapunov))
     if interrupted:
         finished = int((ds.status == "completed").sum())
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
                       + (f" (in {store})" if store else "") + "; the others have status 'interrupted'",
                       RuntimeWarning, stacklevel=2)
-    if lyapunov is not None and not interrupted:
-        ds = _with_exponents(ds, problem, method, batch, int(lyapunov), threads)
     blown = int((ds.status == "blow-up").sum())
     if blown:
         warnings.warn(f"{blown} of {count} trajectories blew up (status 'blow-up'); their numbers stop at "
@@ -285,29 +286,13 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
 MAX_THREADS = 1024
 
 
-def _check_lyapunov(count, problem, client, store) -> None:
-    """``lyapunov=``: a number of exponents, 1 … 2n, for a run on this machine."""
+def _check_lyapunov(count, problem) -> None:
+    """``lyapunov=``: a number of exponents, 1 … 2n."""
     if count is None:
         return
     if not _check.is_integer(count) or not 1 <= count <= 2 * problem.dim:
         raise ValueError(f"lyapunov: the number of exponents per trajectory, an integer from 1 to 2n = "
                          f"{2 * problem.dim}, got {count!r}")
-    if client is not None or store is not None:
-        raise ValueError("lyapunov: the exponents are computed on this machine and not stored; leave out "
-                         "client= and store=, or run trigint.lyapunov per trajectory")
-
-
-def _with_exponents(ds, problem, method, batch, count: int, threads) -> xr.Dataset:
-    """The leading exponents and the MEGNO of every trajectory (each as ``lyapunov()`` alone)."""
-    from .lyapunov import lanes
-
-    exponents, megno, _ = lanes(problem, method, batch.q0, batch.p0, batch.h, batch.n_steps, count, threads)
-    names = [f"λ{j + 1}" for j in range(count)]
-    ds = ds.assign(lyapunov=(("trajectory", "exponent"), exponents), megno=("trajectory", megno))
-    ds = ds.assign_coords(exponent=names)
-    ds["lyapunov"].attrs["description"] = "finite-time Lyapunov exponents at the last step, largest first"
-    ds["megno"].attrs["description"] = "time-averaged MEGNO <Y> of the leading deviation vector"
-    return ds
 
 
 def _check_memory(problem, batch, save_every) -> None:
@@ -434,9 +419,11 @@ def _execute(client, todo, spans, batch, args, kwargs):
                 future.cancel()
 
 
-def _sizes(problem, batch, names, save_every) -> dict:
+def _sizes(problem, batch, names, save_every, lyapunov=None) -> dict:
     """The dimension sizes of a sweep's output table (``_outputs.OUTPUTS``)."""
     sizes = {"trajectory": len(batch), "energy": len(names), "coordinate": problem.dim}
+    if lyapunov is not None:
+        sizes["exponent"] = int(lyapunov)
     if save_every is not None:
         sizes["sample"] = _max_samples(batch, save_every)
     return sizes
@@ -449,17 +436,17 @@ def _max_samples(batch, save_every) -> int:
     return int(np.max(n // save_every + 1 + (n % save_every != 0)))
 
 
-def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans):
+def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans, lyapunov=None):
     if store is None:
         return None
-    shapes = _outputs.shapes(_sizes(problem, batch, names, save_every), save_every is not None)
+    shapes = _outputs.shapes(_sizes(problem, batch, names, save_every, lyapunov), save_every is not None)
     matrix = problem.stepper.store_matrix(problem)
     coefficients = np.stack([batch.methods[k] for k in METHOD_ROWS]) if batch.methods else None
     prints = fingerprint({
         "omega": problem.omega, "blocks": problem.blocks, "potential": _potential_key(problem.potential),
         **matrix, "method": repr(method), "coefficients": coefficients,
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
-        "track_energies": bool(track),
+        "track_energies": bool(track), "lyapunov": lyapunov,
     })
     return SweepStore(store, prints, shapes, chunk, len(spans))
 
@@ -472,9 +459,9 @@ def _potential_key(potential) -> str:
     return repr(spec)
 
 
-def _assemble(problem, method, batch, names, spans, results, stored, save_every) -> xr.Dataset:
+def _assemble(problem, method, batch, names, spans, results, stored, save_every, lyapunov=None) -> xr.Dataset:
     count = len(batch)
-    sizes, with_samples = _sizes(problem, batch, names, save_every), save_every is not None
+    sizes, with_samples = _sizes(problem, batch, names, save_every, lyapunov), save_every is not None
     arrays = _outputs.empty(sizes, with_samples)
     for i, rows in stored.items():  # finished chunks read back from the store
         for name in arrays:
@@ -483,9 +470,11 @@ def _assemble(problem, method, batch, names, spans, results, stored, save_every)
         for name, value in _outputs.chunk_rows(out, sizes, with_samples).items():
             arrays[name][spans[i]] = value
     arrays["status"] = np.array([STATUS_NAMES[int(s)] for s in arrays["status"]], dtype=object)
-    data = {o.name: (o.dims, arrays[o.name]) for o in _outputs.outputs(with_samples)}
+    data = {o.name: (o.dims, arrays[o.name]) for o in _outputs.outputs(with_samples, lyapunov is not None)}
     coords = {"trajectory": np.arange(count), "energy": names, "h": ("trajectory", batch.h),
               "n_steps": ("trajectory", batch.n_steps)}
+    if lyapunov is not None:
+        coords["exponent"] = [f"λ{j + 1}" for j in range(int(lyapunov))]
     if with_samples:
         step = arrays["step"]
         data["t"] = (("trajectory", "sample"), np.where(step >= 0, step * batch.h[:, None], np.nan))
@@ -493,6 +482,9 @@ def _assemble(problem, method, batch, names, spans, results, stored, save_every)
         coords["last_sample"] = ("trajectory", np.maximum((step >= 0).sum(axis=1) - 1, 0))
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(method=repr(method), problem=repr(problem))
+    if lyapunov is not None:
+        ds["lyapunov"].attrs["description"] = "finite-time Lyapunov exponents at the last step (Benettin's order)"
+        ds["megno"].attrs["description"] = "time-averaged MEGNO <Y> of the leading deviation vector"
     return ds
 
 

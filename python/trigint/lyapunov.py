@@ -21,23 +21,19 @@ chaotic one. :func:`tangent_map` applies the linearized map itself.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import _check
+from ._deviation import RENORMALIZE_EVERY, default_deviation
 from ._method_names import resolve_method
 from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 
-#: the seed of the default deviation vectors (see :func:`default_deviation`)
-DEFAULT_DEVIATION_SEED = 20150
-
-#: renormalize every this many steps unless told: growth over 16 steps stays far from overflow
-#: for any exponent a stable step can show, and the QR costs little beside the steps
-DEFAULT_RENORMALIZE_EVERY = 16
+#: renormalize every this many steps unless told (see :mod:`trigint._deviation`)
+DEFAULT_RENORMALIZE_EVERY = RENORMALIZE_EVERY
 
 #: history samples kept by default: about this many over the run
 DEFAULT_SAMPLES = 1000
@@ -139,22 +135,6 @@ class LyapunovResult:
             ax.legend(loc="upper right", fontsize="small")
         ax.set_title(f"{self.method.name}, h = {self.h:g}")
         return ax
-
-
-def default_deviation(n: int, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The deviation vectors used when none are given: `count` orthonormal vectors in ℝ²ⁿ
-    (rows of (δq, δp)), the Q factor of a standard normal matrix drawn with
-    ``numpy.random.default_rng(DEFAULT_DEVIATION_SEED)``: deterministic, and in general position
-    (no chance alignment with an invariant subspace).
-
-    >>> dq, dp = default_deviation(3, 2)
-    >>> dq.shape, bool(np.allclose(np.hstack([dq, dp]) @ np.hstack([dq, dp]).T, np.eye(2)))
-    ((2, 3), True)
-    """
-    rng = np.random.default_rng(DEFAULT_DEVIATION_SEED)
-    q, _ = np.linalg.qr(rng.standard_normal((2 * n, count)))
-    rows = q.T
-    return np.ascontiguousarray(rows[:, :n]), np.ascontiguousarray(rows[:, n:])
 
 
 def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: float | None = None,
@@ -369,28 +349,3 @@ class _TangentRun:
             raise RuntimeError(f"progress callback failed: {out['interrupted_by']}")
         return out
 
-
-def lanes(problem, method, q0, p0, h, n_steps, count: int, threads: int | None = None,
-          renormalize_every: int = DEFAULT_RENORMALIZE_EVERY):
-    """The leading `count` exponents and the MEGNO of each trajectory of an ensemble (rows of q0,
-    p0 with their own h and n_steps): each lane is :func:`lyapunov` on it alone, so its numbers
-    do not depend on the batch or the thread count. The lanes run on `threads` threads (default:
-    every core); the core leaves the interpreter while it steps. Returns (exponents of shape
-    (B, count), MEGNO of shape (B,), statuses)."""
-    import warnings
-    from concurrent.futures import ThreadPoolExecutor
-
-    count = int(count)
-    workers = (os.cpu_count() or 1) if threads is None else int(threads)
-
-    def one(b: int):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            r = lyapunov(problem, method, q0[b], p0[b], h=float(h[b]), n_steps=int(n_steps[b]), n_exponents=count,
-                         renormalize_every=renormalize_every)
-        return r.exponents, float(r.megno.values[-1]) if r.megno.size else np.nan, r.status
-
-    with ThreadPoolExecutor(max_workers=max(1, min(workers, len(h)))) as pool:
-        rows = list(pool.map(one, range(len(h))))
-    return (np.array([r[0] for r in rows]).reshape(len(h), count), np.array([r[1] for r in rows]),
-            np.array([r[2] for r in rows]))

@@ -200,34 +200,29 @@ impl Fpu {
 impl Fpu {
     /// G(x)v of the chain in its own variables: with the elongations d_i = ℓ_i·x and
     /// e_i = ℓ_i·v, the force's cubes d_i³ become c_i = 3d_i²e_i and are distributed as in the
-    /// force (each spring's c computed once, carried to the next coordinate: no buffer).
+    /// force (each spring's c computed once and carried to the next coordinate: no buffer, no
+    /// call).
     #[inline(always)]
     fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         let m = self.m;
         let (x0, x1) = x.split_at(m);
         let (v0, v1) = v.split_at(m);
         let (f0, f1) = out.split_at_mut(m);
-        let spring = |i: usize| -> f64 {
-            let (d, e) = if i == 0 {
-                (x0[0] - x1[0], v0[0] - v1[0])
-            } else if i == m {
-                (x0[m - 1] + x1[m - 1], v0[m - 1] + v1[m - 1])
-            } else {
-                (
-                    (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]),
-                    (v0[i] - v1[i]) - (v0[i - 1] + v1[i - 1]),
-                )
-            };
-            3.0 * d * d * e
-        };
-        let mut now = spring(0);
+        let three = 3.0;
+        // Spring 0 joins the wall to the first stiff spring.
+        let d = x0[0] - x1[0];
+        let mut now = three * d * d * (v0[0] - v1[0]);
         for j in 0..m - 1 {
-            let next = spring(j + 1);
+            let d = (x0[j + 1] - x1[j + 1]) - (x0[j] + x1[j]);
+            let e = (v0[j + 1] - v1[j + 1]) - (v0[j] + v1[j]);
+            let next = three * d * d * e;
             f0[j] = -now + next;
             f1[j] = now + next;
             now = next;
         }
-        let end = spring(m);
+        // Spring m joins the last stiff spring to the wall.
+        let d = x0[m - 1] + x1[m - 1];
+        let end = three * d * d * (v0[m - 1] + v1[m - 1]);
         f0[m - 1] = -now - end;
         f1[m - 1] = now - end;
     }
