@@ -158,7 +158,9 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
         volume).
     deviation : (dq0, dp0), optional
         Initial deviation vectors, arrays of shape (n,) or (n_exponents, n); orthonormalized
-        before the first step. Default: :func:`default_deviation`.
+        before the first step. Default: deterministic, the Q factor of a standard normal
+        (2n × n_exponents) matrix drawn with ``numpy.random.default_rng(20150)``
+        (``from trigint.lyapunov import default_deviation``), in general position.
     renormalize_every : int
         Steps between re-orthonormalizations (default 16).
     sample_every : int, optional
