@@ -21,6 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from . import _check, _native, _tape
+from ._fpu_forms import fpu_linear_forms, fpu_original_basis, fpu_tape  # noqa: F401  (re-exported)
 
 
 class Potential(ABC):
@@ -127,27 +128,6 @@ def _count(value, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
-def fpu_original_basis(m: int) -> np.ndarray:
-    """T with q = T x: the original coordinates q₁ … q₂ₘ of the diagonal ones x (T orthogonal).
-
-    Parameters
-    ----------
-    m : int
-        The number of stiff springs (2m particles, 2m coordinates).
-
-    Returns
-    -------
-    array of shape (2m, 2m)
-    """
-    t = np.zeros((2 * m, 2 * m))
-    r = np.sqrt(0.5)
-    for i in range(m):
-        t[2 * i, i], t[2 * i, m + i] = r, -r          # q₂ᵢ₋₁ = (x₀,ᵢ − x₁,ᵢ)/√2
-        t[2 * i + 1, i], t[2 * i + 1, m + i] = r, r   # q₂ᵢ = (x₀,ᵢ + x₁,ᵢ)/√2
-    return t
-
-
-
 class FPUPotential(Potential):
     """The soft nonlinear springs of the Fermi–Pasta–Ulam chain [GNI §I.5], native in Rust.
 
@@ -215,38 +195,6 @@ def _csr_map(dense: np.ndarray, n: int) -> dict:
     ptr = np.searchsorted(rows, np.arange(dense.shape[0] + 1))
     return {"rows": int(dense.shape[0]), "cols": n, "ptr": [int(x) for x in ptr],
             "idx": [int(x) for x in cols], "vals": np.ascontiguousarray(dense[rows, cols], dtype=float)}
-
-
-def fpu_linear_forms(m: int) -> list[list[tuple[int, float]]]:
-    """The FPU's spring elongations as sparse rows over x = (x₀,₁ … x₀,ₘ, x₁,₁ … x₁,ₘ)."""
-    rows = [[(0, 1.0), (m, -1.0)]]
-    for i in range(1, m):
-        rows.append([(i, 1.0), (m + i, -1.0), (i - 1, -1.0), (m + i - 1, -1.0)])
-    rows.append([(m - 1, 1.0), (2 * m - 1, 1.0)])
-    return rows
-
-
-def fpu_tape(m: int) -> dict:
-    """¼ Σ y_k⁴ over the FPU's linear forms, as a tape (no expansion)."""
-    ops: list[tuple] = [("input", i) for i in range(2 * m)]
-    quarter = len(ops)
-    ops.append(("const", 0.25))
-    total = None
-    for row in fpu_linear_forms(m):
-        (i0, _), *rest = row
-        acc = i0
-        for j, c in rest:
-            ops.append(("add" if c > 0 else "sub", acc, j))
-            acc = len(ops) - 1
-        ops.append(("powi", acc, 4))
-        ops.append(("mul", quarter, len(ops) - 1))
-        term = len(ops) - 1
-        if total is None:
-            total = term
-        else:
-            ops.append(("add", total, term))
-            total = len(ops) - 1
-    return {"n": 2 * m, "ops": ops, "output": total}
 
 
 class ExpressionPotential(Potential):
