@@ -267,3 +267,23 @@ def test_ensemble_lyapunov_bad_input(kwargs, message):
     q0, p0 = ti.problems.fpu_initial(m=3, omega=30.0)
     with pytest.raises(ValueError, match=message):
         ti.ensemble(problem, "B", q0, p0, h=0.02, n_steps=10, **kwargs)
+
+
+def test_command_line(tmp_path):
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "trigint.cli", "lyapunov", "--h-omega-range", "1.0", "3.0", "3",
+                          "--t-end", "50", "--exponents", "2", "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    rows = [line.split() for line in run.stdout.splitlines() if line[:1].isdigit()]
+    assert len(rows) == 3 and all(r[-1] == "completed" for r in rows)
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    alone = ti.lyapunov(prob, "B", q0, p0, h=2.0 / 50.0, t_end=50.0, n_exponents=2)
+    assert float(rows[1][1]) == pytest.approx(alone.exponents[0], rel=1e-3)
+    assert (tmp_path / "fpu_lyapunov.png").exists()
+    bad = subprocess.run([sys.executable, "-m", "trigint.cli", "lyapunov", "--h-omega", "-1"], capture_output=True,
+                         text=True, timeout=300)
+    assert bad.returncode != 0 and "h-omega" in bad.stderr
