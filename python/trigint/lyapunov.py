@@ -256,7 +256,7 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
 
     Returns
     -------
-    (dq_N, dp_N) : arrays of the shape of `dq`
+    dq_N, dp_N : arrays of the shape of `dq`
         The image of the deviations, exact to rounding.
 
     Examples
