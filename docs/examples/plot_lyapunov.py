@@ -4,8 +4,9 @@ Lyapunov exponents of the integrator's own map
 
 Left: the leading finite-time Lyapunov exponent of the FPU problem (m = 3, ω = 50, the paper's
 initial data) integrated by method B to t = 300, against hω, with the multiples of π dashed.
-The slow motion of the chain is chaotic at every step size (λ₁ ≈ 0.1): the exponent measures
-the problem, and it stays flat away from the resonances. Right: a 1-D wave equation
+The slow motion of the chain is chaotic at every step size: the finite-time exponent scatters
+between about 0.07 and 0.16 (a chaotic orbit's exponent at t = 300) with no systematic change at
+hω = π. It measures the problem, not the step size. Right: a 1-D wave equation
 u_tt = u_xx − u − u³ on 128 points, weak and strong initial data: MEGNO ⟨Y⟩ stays near 0 for
 the weak one (a nearly linear, isochronous motion: deviations stay bounded; a regular motion
 with shear gives 2) and grows like λt/2 for the strong, chaotic one.
@@ -31,7 +32,7 @@ for amplitude in (0.1, 3.0):
 
 fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
 left.plot(scan.h_omega, scan.lyapunov, ".-", lw=0.7, ms=3)
-for k in (1, 2, 3):
+for k in range(1, int(h_omega[-1] / np.pi) + 1):
     left.axvline(k * np.pi, ls="--", color="grey", lw=0.7)
 left.set_xlabel("hω")
 left.set_ylabel("leading exponent λ₁ at t = 300")
@@ -40,7 +41,7 @@ for amplitude, res in runs.items():
     right.plot(res.megno.t, res.megno, label=f"amplitude {amplitude}")
 right.axhline(2, color="grey", lw=0.6, ls="--")
 right.set_xlabel("t")
-right.set_ylabel("MEGNO ⟨Y⟩")
+right.set_ylabel("MEGNO <Y>")
 right.set_title("1-D wave equation, method B, h = 0.05")
 right.legend()
 fig.tight_layout()
