@@ -287,3 +287,15 @@ def test_command_line(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "trigint.cli", "lyapunov", "--h-omega", "-1"], capture_output=True,
                          text=True, timeout=300)
     assert bad.returncode != 0 and "h-omega" in bad.stderr
+
+
+def test_wave_deviation_on_the_grid():
+    """A 2-D wave problem takes its deviation as grid values, like its state."""
+    problem = wave((8, 6))
+    x, y = problem.mesh
+    u0, v0 = 0.3 * np.cos(x) * np.sin(y), 0 * x
+    du = np.zeros_like(x)
+    du[2, 3] = 1.0
+    grid = ti.lyapunov(problem, "B", u0, v0, h=0.05, n_steps=64, deviation=(du, 0 * du))
+    flat = ti.lyapunov(problem, "B", u0, v0, h=0.05, n_steps=64, deviation=(du.ravel(), np.zeros(du.size)))
+    assert np.array_equal(grid.exponents, flat.exponents)

@@ -143,9 +143,10 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
              finite_differences: bool = False, progress=None) -> LyapunovResult:
     """The finite-time Lyapunov spectrum of the numerical map along the trajectory from (q0, p0).
 
-    The deviation vectors follow the exact tangent map of the step ``integrate`` takes (two-step
-    form); every `renormalize_every` steps they are re-orthonormalized (Gram–Schmidt, the QR of
-    Benettin's method) and λ_j(t) = (1/t) Σ ln R_jj accumulates. Norms and inner products are the
+    The deviation vectors follow the exact tangent map of the step ``integrate`` takes (the
+    two-step form; on the Krylov path the one-step form, as ``integrate`` steps it there); every
+    `renormalize_every` steps they are re-orthonormalized (Gram–Schmidt, the QR of Benettin's
+    method) and λ_j(t) = (1/t) Σ ln R_jj accumulates. Norms and inner products are the
     Euclidean ones of (δq, δp) in the coordinates q0, p0 are given in (grid values for a wave
     problem, the original coordinates for a stiffness matrix).
 
@@ -304,7 +305,9 @@ def _deviations(problem, deviation, k: int) -> tuple[np.ndarray, np.ndarray]:
         dq, dp = deviation
     except (TypeError, ValueError):
         raise TypeError("deviation: expected a pair (dq0, dp0) of arrays of shape (n,) or (n_exponents, n)") from None
-    dq, dp = np.atleast_2d(np.asarray(dq, dtype=float)), np.atleast_2d(np.asarray(dp, dtype=float))
+    dq, dp = np.asarray(dq, dtype=float), np.asarray(dp, dtype=float)
+    # grid-shaped deviations of a wave problem, (k, *grid) or (*grid,) for k = 1, as rows
+    dq, dp = (x.reshape(k, n) if x.size == k * n else np.atleast_2d(x) for x in (dq, dp))
     if dq.shape != (k, n) or dp.shape != (k, n):
         raise ValueError(f"deviation: expected dq0 and dp0 of shape ({k}, {n}) for n_exponents = {k}, "
                          f"got {dq.shape} and {dp.shape}")
