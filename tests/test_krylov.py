@@ -145,3 +145,20 @@ def test_method_specs_name_the_closed_forms_only_for_named_filters():
     assert set(spec) == {"h", "functions", "phi_is_identity"}
     rows = spec["functions"](np.array([0.0, 100.0]))
     assert rows.shape == (7, 2) and rows[1, 0] == 1.0
+
+
+def test_a_named_filter_added_in_python_runs_on_the_krylov_path(monkeypatch):
+    """Adding a named filter is one entry in `_filters.FILTERS`: the Krylov path, which has only
+    A–E in closed form (`_core.KRYLOV_FILTERS`), takes any other through its functions."""
+    from trigint import _filters
+
+    monkeypatch.setitem(_filters.FILTERS, "F", _filters.Filter("F", sinc, _filters.one, "a test", "psi = sinc"))
+    method = ti.Trigonometric("F")
+    assert method.named_filter == "F" and "F" not in ti._native.KRYLOV_FILTERS
+    assert set(_krylov.method_spec(method, 0.05)) == {"h", "functions", "phi_is_identity"}
+    prob = chain(40, "krylov")
+    q0, p0 = initial(40)
+    new = ti.integrate(prob, method, q0, p0, h=0.05, n_steps=200)
+    b = ti.integrate(prob, "B", q0, p0, h=0.05, n_steps=200)  # the same ψ, φ in closed form
+    assert new.status == "completed"
+    assert np.max(np.abs(new.q[-1] - b.q[-1])) < 1e-10 * np.max(np.abs(b.q[-1]))

@@ -67,7 +67,7 @@ def method_spec(method, h: float) -> dict:
     """One trajectory's method as the core takes it: a named trigonometric filter (closed forms in
     the core) or the method's own functions (:class:`MatrixFunctions`)."""
     letter = getattr(method, "named_filter", None)
-    if letter is not None:
+    if letter in _native.KRYLOV_FILTERS:
         return {"h": float(h), "filter": letter}
     functions = MatrixFunctions(method, h)
     return {"h": float(h), "functions": functions, "phi_is_identity": functions.phi_is_identity()}

@@ -25,6 +25,10 @@ METHOD_ROWS: tuple[str, ...] = tuple(_core.METHOD_ROWS)
 #: the Krylov path's matrix functions, in the order of the core's table (``_core.KRYLOV_FUNCTIONS``)
 KRYLOV_FUNCTIONS: tuple[str, ...] = tuple(_core.KRYLOV_FUNCTIONS)
 
+#: the named filters the Krylov path has in closed form in the core (``_core.KRYLOV_FILTERS``); any
+#: other method, a named filter added in Python included, gives the core its functions to evaluate
+KRYLOV_FILTERS: tuple[str, ...] = tuple(_core.KRYLOV_FILTERS)
+
 
 def channel_names(n_blocks: int, n_axes: int = 0) -> list[str]:
     """The energy channels' names in output order for ℓ = n_blocks oscillatory blocks and

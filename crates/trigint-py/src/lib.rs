@@ -275,6 +275,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "KRYLOV_FUNCTIONS",
         PyTuple::new(m.py(), trigint_core::krylov::FUNCTIONS)?,
     )?;
+    m.add(
+        "KRYLOV_FILTERS",
+        PyTuple::new(m.py(), trigint_core::krylov::Filter::LETTERS)?,
+    )?;
     // The schemas, written once in the core: the method rows and the energy channels.
     m.add(
         "METHOD_ROWS",

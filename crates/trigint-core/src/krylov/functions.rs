@@ -58,6 +58,10 @@ pub enum Filter {
 }
 
 impl Filter {
+    /// The letters of the filters with closed forms here (exported as `_core.KRYLOV_FILTERS`:
+    /// any other named filter takes the Python route, its functions evaluated at the Ritz values).
+    pub const LETTERS: &'static [&'static str] = &["A", "B", "C", "D", "E"];
+
     /// The filter of a letter A–E.
     pub fn from_letter(letter: &str) -> Option<Filter> {
         Some(match letter {
