@@ -133,8 +133,7 @@ struct Run<'a, P: Potential, L: Real, Sh: Shape> {
     st: State<L, Sh>,
     dev: Deviations,
     metric: &'a [f64],
-    /// φq_n, φδq and G(φq_n)φδq of the vectors.
-    x: Vec<f64>,
+    /// φδq of one vector and G(φq_n)φδq of the vectors.
     phi_v: Vec<f64>,
     gv: Vec<f64>,
 }
@@ -175,7 +174,6 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             st,
             dev,
             metric,
-            x: vec![0.0; n],
             phi_v: vec![0.0; n],
             gv: vec![0.0; k * n],
         }
@@ -212,10 +210,9 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             }
             return Ok(());
         }
+        // φq_n as `evaluate` left it in the state's scratch (q itself on the slow coordinates).
+        let x = L::as_f64s(&st.x.get()[..n]).expect("one lane");
         let phi = &self.t.phi[..n];
-        for i in 0..n {
-            self.x[i] = phi[i] * q[i];
-        }
         for j in 0..self.dev.k {
             let r = j * n..(j + 1) * n;
             let v = &self.dev.dq[r.clone()];
@@ -223,7 +220,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
                 self.phi_v[i] = phi[i] * v[i];
             }
             self.pot.force_derivative(
-                &self.x,
+                x,
                 &self.phi_v,
                 &mut self.gv[r],
                 &mut self.ws64,
@@ -292,23 +289,28 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
         let mut st = std::mem::replace(&mut self.st, State::placeholder());
         let mut r = Ok(());
         for _ in from..to {
-            if let Err(e) = self.forces(&mut st) {
+            if let Err(e) = self.advance(&mut st, false) {
                 r = Err(e);
                 break;
             }
-            recursion::two_step(
-                self.sh,
-                &self.k,
-                &self.w,
-                &mut st,
-                Observe::No,
-                true,
-                &mut [],
-            );
-            self.step(false);
         }
         self.st = st;
         r
+    }
+
+    /// One step of the trajectory and of the deviations; `keep`: also keep (q_n, d_n) and δq_n,
+    /// which an event reads.
+    #[inline(always)]
+    fn advance(&mut self, st: &mut State<L, Sh>, keep: bool) -> CoreResult<()> {
+        self.forces(st)?;
+        if keep {
+            let n = self.sh.n();
+            self.prev_q.copy_from_slice(&st.q.get()[..n]);
+            self.prev_d.copy_from_slice(&st.d.get()[..n]);
+        }
+        recursion::two_step(self.sh, &self.k, &self.w, st, Observe::No, true, &mut []);
+        self.step(keep);
+        Ok(())
     }
 
     fn finite(&self) -> bool {
@@ -341,20 +343,9 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             self.quiet(step, event)?;
             // Step `event` → `event` + 1, which completes (q, p) and (δq, δp) at `event`.
             let mut st = std::mem::replace(&mut self.st, State::placeholder());
-            self.forces(&mut st)?;
-            self.prev_q.copy_from_slice(&st.q.get()[..n]);
-            self.prev_d.copy_from_slice(&st.d.get()[..n]);
-            recursion::two_step(
-                self.sh,
-                &self.k,
-                &self.w,
-                &mut st,
-                Observe::No,
-                true,
-                &mut [],
-            );
+            let advanced = self.advance(&mut st, true);
             self.st = st;
-            self.step(true);
+            advanced?;
             step = event;
             if !self.finite() {
                 book.blow_up(
