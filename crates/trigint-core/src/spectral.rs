@@ -25,6 +25,8 @@ use rustfft::{Fft, FftPlanner};
 
 use crate::error::{CoreError, CoreResult};
 
+mod line;
+
 /// Largest grid (points in all): a 3-D 256³ grid.
 pub const MAX_POINTS: usize = 1 << 24;
 
@@ -98,8 +100,11 @@ pub struct Spectral {
     singles: Vec<usize>,
     /// The wavevector of each coordinate (signed FFT frequencies, d per coordinate).
     wavevectors: Vec<i64>,
-    r2c: Arc<dyn RealToComplex<f64>>,
-    c2r: Arc<dyn ComplexToReal<f64>>,
+    /// The real transforms along the last axis (grids of two or three axes).
+    r2c: Option<Arc<dyn RealToComplex<f64>>>,
+    c2r: Option<Arc<dyn ComplexToReal<f64>>>,
+    /// A grid of one axis: both transforms fused with the coordinates' packing.
+    line: Option<line::Line>,
     /// Forward and inverse complex FFTs of the first d − 1 axes.
     forward: Vec<Arc<dyn Fft<f64>>>,
     inverse: Vec<Arc<dyn Fft<f64>>>,
@@ -201,9 +206,11 @@ impl Spectral {
         let (runs, singles) = pair_runs(&slots);
         let mut real = RealFftPlanner::<f64>::new();
         let mut complex = FftPlanner::<f64>::new();
+        let line = (d == 1).then(|| line::Line::new(last, &mut complex));
         Ok(Spectral {
-            r2c: real.plan_fft_forward(last),
-            c2r: real.plan_fft_inverse(last),
+            r2c: line.is_none().then(|| real.plan_fft_forward(last)),
+            c2r: line.is_none().then(|| real.plan_fft_inverse(last)),
+            line,
             forward: shape[..d - 1]
                 .iter()
                 .map(|&n| complex.plan_fft_forward(n))
@@ -244,8 +251,9 @@ impl Spectral {
     pub fn workspace(&self) -> SpectralWorkspace {
         let longest = self.shape.iter().copied().max().unwrap_or(1);
         let scratch = [
-            self.r2c.get_scratch_len(),
-            self.c2r.get_scratch_len(),
+            self.r2c.as_ref().map_or(0, |f| f.get_scratch_len()),
+            self.c2r.as_ref().map_or(0, |f| f.get_scratch_len()),
+            self.line.as_ref().map_or(0, |l| l.scratch_len()),
             self.forward
                 .iter()
                 .chain(&self.inverse)
@@ -286,6 +294,9 @@ impl Spectral {
     /// u = S q: the grid values (row-major, N of them) of the coordinates q.
     pub fn to_grid(&self, q: &[f64], u: &mut [f64], ws: &mut SpectralWorkspace) {
         debug_assert_eq!(q.len(), self.points);
+        if let Some(line) = &self.line {
+            return line.to_grid(q, u, &mut ws.half, &mut ws.scratch);
+        }
         let r = std::f64::consts::FRAC_1_SQRT_2;
         for run in &self.runs {
             let q = &q[run.first..run.first + 2 * run.len];
@@ -320,6 +331,8 @@ impl Spectral {
             row[0].im = 0.0;
             row[hl - 1].im = 0.0;
             self.c2r
+                .as_ref()
+                .expect("planned for grids of several axes")
                 .process_with_scratch(row, out, &mut ws.scratch)
                 .expect("c2r of a row with real end points");
         }
@@ -333,12 +346,18 @@ impl Spectral {
         scale: f64,
         ws: &mut SpectralWorkspace,
     ) {
+        if let Some(line) = &self.line {
+            return line.transpose(w, out, scale, &mut ws.half, &mut ws.scratch);
+        }
         let d = self.shape.len();
         let hl = self.half[d - 1];
         let last = self.shape[d - 1];
+        let r2c = self
+            .r2c
+            .as_ref()
+            .expect("planned for grids of several axes");
         for (row, input) in ws.half.chunks_exact_mut(hl).zip(w.chunks_exact_mut(last)) {
-            self.r2c
-                .process_with_scratch(input, row, &mut ws.scratch)
+            r2c.process_with_scratch(input, row, &mut ws.scratch)
                 .expect("r2c of a row");
         }
         for a in 0..d - 1 {
