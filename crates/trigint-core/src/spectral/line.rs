@@ -40,7 +40,11 @@ impl Line {
     /// `FftPlanner`: its choice depends only on the length and the CPU).
     pub(super) fn new(n: usize, planner: &mut FftPlanner<f64>) -> Line {
         debug_assert!(n >= 2 && n.is_multiple_of(2));
-        let count = if n.is_multiple_of(4) { n / 4 } else { n / 4 + 1 };
+        let count = if n.is_multiple_of(4) {
+            n / 4
+        } else {
+            n / 4 + 1
+        };
         Line {
             n,
             forward: planner.plan_fft_forward(n / 2),
