@@ -42,6 +42,17 @@ def _channel_names(n_blocks: int, n_axes: int) -> tuple[str, ...]:
     return tuple(_core.channels(n_blocks, n_axes))
 
 
+def channel_index(n_blocks: int, n_axes: int = 0) -> tuple[tuple[str, ...], dict[str, int]]:
+    """The channels' names in output order and each name's position (made once per count)."""
+    return _channel_index(int(n_blocks), int(n_axes))
+
+
+@functools.lru_cache(maxsize=32)
+def _channel_index(n_blocks: int, n_axes: int) -> tuple[tuple[str, ...], dict[str, int]]:
+    names = _channel_names(n_blocks, n_axes)
+    return names, {name: k for k, name in enumerate(names)}
+
+
 @dataclass(frozen=True)
 class CoreLayout:
     """A problem's arrangement in the core's coordinates, with the map to and from them: a
@@ -132,6 +143,16 @@ def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
 
 
 def core_layout(problem) -> CoreLayout:
+    """The problem's arrangement in the core's coordinates, made once and kept on the problem
+    (a problem's frequencies and blocks never change; building it for a 2¹⁶-point wave took
+    1.4 ms a call)."""
+    kept = problem.__dict__.get("_core_layout")
+    if kept is None:
+        kept = problem.__dict__["_core_layout"] = _core_layout(problem)
+    return kept
+
+
+def _core_layout(problem) -> CoreLayout:
     blocks = np.asarray(problem.blocks)
     perm = np.argsort(blocks, kind="stable")
     inverse = np.empty_like(perm)

@@ -8,15 +8,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import _check
+from . import _check, _native
 from . import _progress as progress_report
 from ._method_names import resolve_method
-from .energies import energy_names
 from .methods import Method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 from .saveat import MAX_STEPS, SaveAt, check_steps
-from .solution import Solution
+from .solution import Channels, Solution
 
 FORMS = ("two-step", "one-step")
 #: progress reports (and Ctrl-C checks) every this many steps; ~10 ms for native potentials
@@ -46,7 +45,7 @@ NEAR_RESONANCE_SIN = 0.1
 
 def sample_bytes(problem, samples: int) -> int:
     """Memory of `samples` kept states: q, p, the energies and the step number of each."""
-    return samples * (2 * problem.dim + len(energy_names(problem.n_blocks, problem.n_axes))) * 8
+    return samples * (2 * problem.dim + len(_native.channel_index(problem.n_blocks, problem.n_axes)[0])) * 8
 
 
 def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: float,
@@ -209,12 +208,12 @@ def _warn_near_resonance(co, method: Method) -> None:
 
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
-    names = energy_names(problem.n_blocks, problem.n_axes)
+    names, index = _native.channel_index(problem.n_blocks, problem.n_axes)
     samples = out.samples[0]
     max_deviation, initial_energies = out.max_deviation[0], out.initial_energies[0]
     if co is not None and not np.all(np.isfinite(co.modified_p)):
         # one-step form at hω = kπ with a filter whose σ has no limit there (E, A)
-        k = names.index("modified_oscillatory")
+        k = index["modified_oscillatory"]
         samples["energies"][:, k] = np.nan
         max_deviation[k] = initial_energies[k] = np.nan
         j = int(np.flatnonzero(~np.isfinite(co.modified_p))[0])
@@ -230,8 +229,8 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
         warnings.warn(message, RuntimeWarning, stacklevel=3)
     return Solution(
         t=t, q=samples["q"], p=samples["p"], steps=steps, energies=energies,
-        max_deviation=dict(zip(names, max_deviation.tolist(), strict=True)),
-        initial_energies=dict(zip(names, initial_energies.tolist(), strict=True)),
+        max_deviation=Channels.of(names, index, max_deviation),
+        initial_energies=Channels.of(names, index, initial_energies),
         h=h, n_steps=int(out.steps_done[0]), n_steps_requested=n_steps,
         status=status, message=message, method=method, problem=problem,
         info=dict(out.info),

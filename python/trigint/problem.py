@@ -3,6 +3,8 @@ positive semi-definite stiffness matrix."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from . import _check, _stiffness
@@ -173,12 +175,12 @@ class OscillatoryProblem:
         """
         return x
 
-    def energy_dataset(self, names: list[str], energies: np.ndarray, coords: dict, attrs: dict):
+    def energy_dataset(self, names: Sequence[str], energies: np.ndarray, coords: dict, attrs: dict):
         """The energies at the samples as an xarray Dataset, one variable per channel over ``t``.
 
         Parameters
         ----------
-        names : list of str
+        names : sequence of str
             The channels, in the order of the columns of `energies`.
         energies : array, shape (samples, channels)
             The streamed energies at the samples.

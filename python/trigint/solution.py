@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -11,20 +12,60 @@ import xarray as xr
 SUMMARY_ENTRIES = 6
 
 
-class Channels(dict):
-    """A dict over energy channels that prints as a summary: the main channels, then how many
-    per-block (per-mode) entries there are and the largest of them. Every entry is still there.
+class Channels(Mapping):
+    """A read-only mapping over energy channels that prints as a summary: the main channels,
+    then how many per-block (per-mode) entries there are and the largest of them. Every entry
+    is still there. It holds the values as one array over the channels (a wave problem has a
+    channel per mode: tens of thousands), indexed by name.
 
     >>> d = Channels({"total": 1e-3, **{f"oscillatory_{j}": j * 1e-6 for j in range(1, 501)}})
     >>> d
     {total=1.000e-03; 500 per-block entries, largest: oscillatory_500=5.000e-04, ...}
     >>> d["oscillatory_7"]
     7e-06
+    >>> float(d.to_numpy()[0])
+    0.001
     """
 
+    __slots__ = ("_names", "_index", "_values")
+
+    def __init__(self, entries=(), *, table: tuple[tuple[str, ...], dict[str, int]] | None = None,
+                 values: np.ndarray | None = None):
+        if table is None:
+            entries = dict(entries)
+            table = tuple(entries), {k: i for i, k in enumerate(entries)}
+            values = [float(v) for v in entries.values()]
+        self._names, self._index = table
+        self._values = np.array(values, dtype=float)
+
+    @classmethod
+    def of(cls, names: tuple[str, ...], index: dict[str, int], values: np.ndarray) -> Channels:
+        """The channels `names` (with ``index[name]`` its position) holding `values` (copied)."""
+        return cls(table=(names, index), values=values)
+
+    def __getitem__(self, name: str) -> float:
+        return float(self._values[self._index[name]])
+
+    def __contains__(self, name) -> bool:
+        return name in self._index
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def to_numpy(self) -> np.ndarray:
+        """The values in channel order (a copy)."""
+        return self._values.copy()
+
+    def __reduce__(self):
+        return (Channels, (dict(self),))
+
     def __repr__(self) -> str:
-        blocks = [(k, v) for k, v in self.items() if k.startswith("oscillatory_")]
-        main = [(k, v) for k, v in self.items() if not k.startswith("oscillatory_")]
+        items = list(zip(self._names, self._values.tolist(), strict=True))
+        blocks = [(k, v) for k, v in items if k.startswith("oscillatory_")]
+        main = [(k, v) for k, v in items if not k.startswith("oscillatory_")]
         text = ", ".join(f"{k}={_number(v)}" for k, v in main)
         if len(blocks) <= SUMMARY_ENTRIES:
             text = ", ".join(x for x in (text, ", ".join(f"{k}={_number(v)}" for k, v in blocks)) if x)
@@ -55,9 +96,10 @@ class Solution:
     energies : xarray.Dataset
         Every energy over ``t`` at the samples: ``total``, ``oscillatory``, ``slow``,
         ``modified_oscillatory`` and ``oscillatory_1`` … ``oscillatory_ℓ``.
-    max_deviation : dict
-        max |E(t_n) − E(0)| per energy over every step n (streamed, not from the samples).
-    initial_energies : dict
+    max_deviation : Channels
+        max |E(t_n) − E(0)| per energy over every step n (streamed, not from the samples); a
+        read-only mapping from channel name to value.
+    initial_energies : Channels
         E(0) per energy.
     h : float
         The step size.
@@ -96,8 +138,8 @@ class Solution:
     p: np.ndarray
     steps: np.ndarray
     energies: xr.Dataset
-    max_deviation: dict
-    initial_energies: dict
+    max_deviation: Mapping
+    initial_energies: Mapping
     h: float
     n_steps: int
     n_steps_requested: int
@@ -160,7 +202,7 @@ class Solution:
                 object.__setattr__(self, name, Channels(getattr(self, name)))
 
     def __repr__(self) -> str:
-        devs = repr(Channels(self.max_deviation))[1:-1]
+        devs = repr(self.max_deviation)[1:-1]
         return (
             f"Solution(status={self.status!r}, method={self.method!r}, h={self.h:g}, "
             f"n_steps={self.n_steps}, samples={self.t.size}, max_deviation: {devs})"

@@ -15,9 +15,8 @@ self-conjugate mode has its own I_j), with û = FFT(u)/N.
 
 from __future__ import annotations
 
-import itertools
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -37,17 +36,15 @@ class FourierMap:
 
     def __init__(self, grid, order: np.ndarray):
         self.grid = grid
-        self.order = order
+        self.order = np.ascontiguousarray(order, dtype=np.int64)
 
     def to_core(self, x: np.ndarray) -> np.ndarray:
-        rows = np.ascontiguousarray(np.asarray(x, dtype=float).reshape(-1, x.shape[-1]))
-        return np.ascontiguousarray(self.grid.from_grid(rows)[:, self.order]).reshape(x.shape)
+        rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
+        return self.grid.from_grid(rows, self.order).reshape(x.shape)
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
         rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
-        canonical = np.empty_like(rows)
-        canonical[:, self.order] = rows
-        return self.grid.to_grid(np.ascontiguousarray(canonical)).reshape(x.shape)
+        return self.grid.to_grid(rows, self.order).reshape(x.shape)
 
 
 class WavePotential(Potential):
@@ -312,7 +309,7 @@ class WaveProblem(OscillatoryProblem):
             return
         channels = sol.initial_energies
         first = list(channels).index("oscillatory_1")  # the per-mode channels, in block order
-        initial = np.fromiter(itertools.islice(channels.values(), first, first + len(self.modes)), dtype=float)
+        initial = channels.to_numpy()[first:first + len(self.modes)]
         tolerance = min(float(np.sqrt(sol.h)), 0.1)
         found = energy_resonances(self, sol.h, initial, tolerance=tolerance)
         if not found:
@@ -337,14 +334,14 @@ class WaveProblem(OscillatoryProblem):
             f"ranks every such combination{more}; wave_resonances(problem, h) lists them all",
             RuntimeWarning, stacklevel=stacklevel)
 
-    def energy_dataset(self, names: list[str], energies: np.ndarray, coords: dict, attrs: dict) -> xr.Dataset:
+    def energy_dataset(self, names: Sequence[str], energies: np.ndarray, coords: dict, attrs: dict) -> xr.Dataset:
         """The wave's energies at the samples: H (``total``), H_ω, ``slow``, H*_ω, the
         ``momentum`` (over ``axis``, streamed) and the ``action`` J_j over (t, mode) for
         `action_modes`.
 
         Parameters
         ----------
-        names : list of str
+        names : sequence of str
             The channels, in the order of the columns of `energies`.
         energies : array, shape (samples, channels)
             The streamed channels at the samples.
@@ -354,8 +351,11 @@ class WaveProblem(OscillatoryProblem):
         first = names.index("oscillatory_1") if "oscillatory_1" in names else len(names)
         whole = {name: ("t", energies[:, k]) for k, name in enumerate(names[:first]) if not name[-1].isdigit()}
         streamed = [f"momentum_{m + 1}" for m in range(self.n_axes)]
-        momentum = {"momentum": (("t", "axis"), np.stack([energies[:, names.index(k)] for k in streamed], axis=1))
-                    } if streamed else {}
+        # the per-axis channels come last (the core's channel table): looked up there, not
+        # through the tens of thousands of per-mode names before them
+        tail = list(names[len(names) - len(streamed):])
+        momentum = {"momentum": (("t", "axis"), np.stack(
+            [energies[:, len(names) - len(streamed) + tail.index(k)] for k in streamed], axis=1))} if streamed else {}
         blocks = energies[:, first:][:, self.action_modes]
         actions = blocks / self.mode_frequencies[self.action_modes]
         data = {**whole, **momentum, "action": (("t", "mode"), actions)}

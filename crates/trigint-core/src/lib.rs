@@ -26,6 +26,7 @@ pub mod plan;
 pub mod potential;
 pub mod real;
 pub mod recursion;
+pub mod recycle;
 pub mod run;
 pub mod shape;
 pub mod spectral;

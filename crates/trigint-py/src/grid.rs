@@ -1,22 +1,34 @@
 //! `_core.FourierGrid`: the real Fourier coordinates of a periodic grid (the wave equation's
 //! coordinate map), planned once and used by the Python layer for states on the way in and out.
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use std::borrow::Cow;
+use std::sync::Mutex;
+
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use trigint_core::spectral::{Part, Spectral};
+use trigint_core::spectral::{Part, Spectral, SpectralWorkspace};
 
 use crate::potential::to_2d;
 
 /// FourierGrid(shape): u = S q and q = Sᵀu / N between grid values (row-major, N per row) and
-/// real Fourier coordinates (in the order of `wavevectors()`).
+/// real Fourier coordinates (in the order of `wavevectors()`, or in a given `order`).
 #[pyclass(frozen, module = "trigint._core")]
 pub struct FourierGrid {
     grid: Spectral,
+    /// A workspace kept for the next call (a call takes it; calls that overlap make their own).
+    kept: Mutex<Option<SpectralWorkspace>>,
 }
 
 impl FourierGrid {
-    fn rows(&self, x: &PyReadonlyArray2<f64>, what: &str) -> PyResult<(usize, Vec<f64>)> {
+    /// The rows of `x` (borrowed when contiguous), after checking their length.
+    fn rows<'a>(
+        &self,
+        x: &'a PyReadonlyArray2<f64>,
+        what: &str,
+    ) -> PyResult<(usize, Cow<'a, [f64]>)> {
         let n = self.grid.points();
         if x.shape()[1] != n {
             return Err(PyValueError::new_err(format!(
@@ -24,7 +36,53 @@ impl FourierGrid {
                 x.shape()[1]
             )));
         }
-        Ok((x.shape()[0], x.as_array().iter().copied().collect()))
+        let data = match x.as_slice() {
+            Ok(s) => Cow::Borrowed(s),
+            Err(_) => Cow::Owned(x.as_array().iter().copied().collect()),
+        };
+        Ok((x.shape()[0], data))
+    }
+
+    /// `order` as indices, checked to be a permutation of the coordinates.
+    fn order(
+        &self,
+        order: Option<PyReadonlyArray1<i64>>,
+        what: &str,
+    ) -> PyResult<Option<Vec<usize>>> {
+        let Some(order) = order else {
+            return Ok(None);
+        };
+        let n = self.grid.points();
+        let mut seen = vec![false; n];
+        let mut out = Vec::with_capacity(n);
+        for &k in order.as_array().iter() {
+            let fits = usize::try_from(k).ok().filter(|&k| k < n && !seen[k]);
+            let Some(k) = fits else {
+                return Err(PyValueError::new_err(format!(
+                    "{what}: order must be a permutation of 0..{n}; {k} is out of range or repeated"
+                )));
+            };
+            seen[k] = true;
+            out.push(k);
+        }
+        if out.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "{what}: order has {} entries for {n} coordinates",
+                out.len()
+            )));
+        }
+        Ok(Some(out))
+    }
+
+    fn workspace(&self) -> SpectralWorkspace {
+        let kept = self.kept.lock().ok().and_then(|mut k| k.take());
+        kept.unwrap_or_else(|| self.grid.workspace())
+    }
+
+    fn keep(&self, ws: SpectralWorkspace) {
+        if let Ok(mut k) = self.kept.lock() {
+            *k = Some(ws);
+        }
     }
 }
 
@@ -33,7 +91,10 @@ impl FourierGrid {
     #[new]
     fn new(shape: Vec<usize>) -> PyResult<Self> {
         let grid = Spectral::new(&shape).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(FourierGrid { grid })
+        Ok(FourierGrid {
+            grid,
+            kept: Mutex::new(None),
+        })
     }
 
     #[getter]
@@ -63,40 +124,71 @@ impl FourierGrid {
         PyArray1::from_vec(py, parts)
     }
 
-    /// to_grid(q) -> u = S q, row by row.
+    /// to_grid(q, order=None) -> u = S q, row by row; with `order`, coordinate k of a row of q
+    /// is the grid's coordinate order[k].
+    #[pyo3(signature = (q, order=None))]
     fn to_grid<'py>(
         &self,
         py: Python<'py>,
         q: PyReadonlyArray2<f64>,
+        order: Option<PyReadonlyArray1<i64>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let (m, data) = self.rows(&q, "to_grid")?;
+        let order = self.order(order, "to_grid")?;
         let n = self.grid.points();
         let mut out = vec![0.0; m * n];
+        let mut ws = self.workspace();
         py.detach(|| {
-            let mut ws = self.grid.workspace();
+            let mut canonical = order.as_ref().map(|_| vec![0.0; n]);
             for (q, u) in data.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
+                let q = match (&order, &mut canonical) {
+                    (Some(order), Some(c)) => {
+                        for (&k, &x) in order.iter().zip(q) {
+                            c[k] = x;
+                        }
+                        &c[..]
+                    }
+                    _ => q,
+                };
                 self.grid.to_grid(q, u, &mut ws);
             }
         });
+        self.keep(ws);
         to_2d(py, out, m, n)
     }
 
-    /// from_grid(u) -> q = Sᵀu / N (the inverse of `to_grid`), row by row.
-    #[pyo3(name = "from_grid")]
+    /// from_grid(u, order=None) -> q = Sᵀu / N (the inverse of `to_grid`), row by row; with
+    /// `order`, coordinate k of a row of q is the grid's coordinate order[k].
+    #[pyo3(name = "from_grid", signature = (u, order=None))]
     fn fourier_of<'py>(
         &self,
         py: Python<'py>,
         u: PyReadonlyArray2<f64>,
+        order: Option<PyReadonlyArray1<i64>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let (m, mut data) = self.rows(&u, "from_grid")?;
+        let (m, data) = self.rows(&u, "from_grid")?;
+        let order = self.order(order, "from_grid")?;
         let n = self.grid.points();
         let mut out = vec![0.0; m * n];
+        let mut ws = self.workspace();
         py.detach(|| {
-            let mut ws = self.grid.workspace();
-            for (u, q) in data.chunks_exact_mut(n).zip(out.chunks_exact_mut(n)) {
-                self.grid.transpose(u, q, 1.0 / n as f64, &mut ws);
+            // the transform overwrites its input
+            let mut row = vec![0.0; n];
+            let mut canonical = order.as_ref().map(|_| vec![0.0; n]);
+            for (u, q) in data.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
+                row.copy_from_slice(u);
+                match (&order, &mut canonical) {
+                    (Some(order), Some(c)) => {
+                        self.grid.transpose(&mut row, c, 1.0 / n as f64, &mut ws);
+                        for (x, &k) in q.iter_mut().zip(order) {
+                            *x = c[k];
+                        }
+                    }
+                    _ => self.grid.transpose(&mut row, q, 1.0 / n as f64, &mut ws),
+                }
             }
         });
+        self.keep(ws);
         to_2d(py, out, m, n)
     }
 
