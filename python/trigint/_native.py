@@ -58,7 +58,9 @@ class CoreLayout:
     """A problem's arrangement in the core's coordinates, with the map to and from them: a
     permutation (diagonal Ω) or the orthogonal modal basis Q (stiffness matrix)."""
 
-    spec: dict
+    #: the arrangement as the core takes it, converted once (``_core.Layout``; ``.spec`` is its
+    #: description)
+    spec: object
     #: core coordinate k is user coordinate perm[k]
     perm: np.ndarray
     #: user coordinate i is core coordinate inverse[i]
@@ -161,13 +163,13 @@ def _core_layout(problem) -> CoreLayout:
     n_slow = int(np.count_nonzero(sorted_blocks == 0))
     # block j ends after its last coordinate (the labels are sorted): O(n log n), not O(ℓ n)
     ends = np.searchsorted(sorted_blocks, np.arange(1, problem.n_blocks + 1), side="right").tolist()
-    spec = {
+    spec = _core.Layout({
         "omega2": np.ascontiguousarray(problem.omega[perm] ** 2),
         "n_slow": n_slow,
         "block_ends": ends,
         # a bilinear invariant in the core's coordinates (a wave equation's momentum), or None
         "pair_forms": problem.pair_forms,
-    }
+    })
     # a stiffness matrix's modal coordinates come ordered (slow first, block by block): perm is
     # the identity and Q the whole map
     return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))), problem.basis,

@@ -1,11 +1,15 @@
 //! `_core.Potential`: a potential built (its tape compiled to machine code, its FFTs planned)
-//! once and passed to every entry point instead of its description. It pickles as its
-//! description, so a worker process builds it once per chunk as before.
+//! once and passed to every entry point instead of its description; `_core.Layout`: a problem's
+//! arrangement converted once (a wave equation's has tens of thousands of blocks and pairs).
+//! Both pickle as their descriptions, so a worker process builds them once per chunk as before.
 
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use trigint_core::Layout;
+
+use crate::convert;
 use crate::potential::{to_2d, values_and_forces, with_potential, NativePotential};
 use crate::{to_py, ValuesAndForces};
 
@@ -84,6 +88,66 @@ impl Handle {
     ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
         Ok((
             py.get_type::<Handle>().into_any(),
+            (self.spec.bind(py).clone(),),
+        ))
+    }
+}
+
+/// Layout(spec): a problem's arrangement (`{"omega2", "n_slow", "block_ends", "pair_forms"}`),
+/// converted once.
+#[pyclass(frozen, module = "trigint._core", name = "Layout")]
+pub struct LayoutHandle {
+    pub layout: Layout,
+    spec: Py<PyDict>,
+}
+
+/// The layout an entry point was given: a handle (converted already) or a description.
+pub enum GivenLayout<'py> {
+    Built(Bound<'py, LayoutHandle>),
+    Described(Box<Layout>),
+}
+
+impl GivenLayout<'_> {
+    pub fn get(&self) -> &Layout {
+        match self {
+            GivenLayout::Built(h) => &h.get().layout,
+            GivenLayout::Described(l) => l,
+        }
+    }
+}
+
+/// A `_core.Layout` or a description dict.
+pub fn given_layout<'py>(obj: &Bound<'py, PyAny>) -> PyResult<GivenLayout<'py>> {
+    if let Ok(h) = obj.cast::<LayoutHandle>() {
+        return Ok(GivenLayout::Built(h.clone()));
+    }
+    Ok(GivenLayout::Described(Box::new(convert::layout(
+        obj.cast::<PyDict>()?,
+    )?)))
+}
+
+#[pymethods]
+impl LayoutHandle {
+    #[new]
+    fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(LayoutHandle {
+            layout: convert::layout(spec)?,
+            spec: spec.clone().unbind(),
+        })
+    }
+
+    /// The description it was converted from.
+    #[getter]
+    fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
+        self.spec.bind(py).clone()
+    }
+
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        Ok((
+            py.get_type::<LayoutHandle>().into_any(),
             (self.spec.bind(py).clone(),),
         ))
     }

@@ -53,7 +53,7 @@ fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
 fn integrate<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
-    layout: &Bound<'py, PyDict>,
+    layout: &Bound<'py, PyAny>,
     method: &Bound<'py, PyDict>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
@@ -66,7 +66,8 @@ fn integrate<'py>(
 ) -> PyResult<RunResult> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let lay = convert::layout(layout)?;
+    let given_layout = handle::given_layout(layout)?;
+    let lay = given_layout.get();
     let co = convert::method(method)?;
     let form = convert::form(form)?;
     let record = convert::record(Some(save_every), track);
@@ -80,7 +81,7 @@ fn integrate<'py>(
                 report: &mut report,
             };
             with_potential!(pot, |p| trigint_core::integrate(
-                p, &lay, &co, &q0, &p0, n_steps, form, record, control
+                p, lay, &co, &q0, &p0, n_steps, form, record, control
             ))
         })
     };
@@ -117,7 +118,7 @@ const WORKER_STACK: usize = 64 << 20;
 fn integrate_batch<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
-    layout: &Bound<'py, PyDict>,
+    layout: &Bound<'py, PyAny>,
     methods: &Bound<'py, PyDict>,
     q0: PyReadonlyArray2<f64>,
     p0: PyReadonlyArray2<f64>,
@@ -129,7 +130,8 @@ fn integrate_batch<'py>(
 ) -> PyResult<RunResult> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let lay = convert::layout(layout)?;
+    let given_layout = handle::given_layout(layout)?;
+    let lay = given_layout.get();
     let methods = convert::methods(methods)?;
     let form = convert::form(form)?;
     let record = convert::record(save_every, track);
@@ -154,11 +156,11 @@ fn integrate_batch<'py>(
             pool.install(|| match pot {
                 NativePotential::Python(p) if p.vectorized() => {
                     trigint_core::integrate_batch::<WideLanes, _>(
-                        p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
+                        p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
                     )
                 }
                 _ => with_potential!(pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
-                    p, &lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
+                    p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
                 )),
             })
         };
@@ -270,6 +272,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<handle::Handle>()?;
+    m.add_class::<handle::LayoutHandle>()?;
     m.add_class::<RunResult>()?;
     m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;

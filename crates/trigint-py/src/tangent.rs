@@ -23,7 +23,7 @@ use crate::{convert, handle, to_py, watch};
 pub fn tangent<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
-    layout: &Bound<'py, PyDict>,
+    layout: &Bound<'py, PyAny>,
     method: &Bound<'py, PyDict>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
@@ -38,7 +38,8 @@ pub fn tangent<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let lay = convert::layout(layout)?;
+    let given_layout = handle::given_layout(layout)?;
+    let lay = given_layout.get();
     let co = convert::method(method)?;
     let (q0, p0, metric) = (convert::vec1(q0), convert::vec1(p0), convert::vec1(metric));
     let k = dq0.as_array().nrows();
@@ -59,7 +60,7 @@ pub fn tangent<'py>(
             };
             with_potential!(pot, |p| trigint_core::tangent(
                 p,
-                &lay,
+                lay,
                 &co,
                 &q0,
                 &p0,
