@@ -206,11 +206,21 @@ def test_bad_input(kwargs, message):
         ti.lyapunov(problem, "B", q0, p0, h=0.02, n_steps=10, **kwargs)
 
 
-def test_blow_up_stops_and_keeps_the_history():
-    problem = ti.problems.fpu(m=1, omega=10.0)
+@pytest.mark.parametrize("case", ["fpu", "krylov"])
+def test_blow_up_stops_and_keeps_the_history_and_the_last_finite_state(case):
+    if case == "fpu":
+        # blows up after 32 steps, between two tests of the state
+        problem, q0, p0, h = ti.problems.fpu(m=1, omega=10.0), np.array([5.0, 0.0]), np.zeros(2), 0.2
+    else:
+        problem, q0, p0, h = krylov(), np.zeros(30), np.zeros(30), 0.3
+        q0[5] = 30.0
     with pytest.warns(RuntimeWarning, match="not finite"):
-        res = ti.lyapunov(problem, "B", [40.0, 0.0], [0.0, 0.0], h=0.3, n_steps=10_000)
-    assert res.status == "blow-up" and res.steps_done < 10_000
+        res = ti.lyapunov(problem, "B", q0, p0, h=h, n_steps=10_000)
+    assert res.status == "blow-up" and 0 < res.steps_done < 10_000
+    # the state returned is the one at steps_done, which integrate() reaches bit for bit
+    sol = ti.integrate(problem, "B", q0, p0, h=h, n_steps=res.steps_done, save_every=res.steps_done)
+    assert np.all(np.isfinite(res.q)) and np.all(np.isfinite(res.p))
+    assert np.array_equal(res.q, sol.q[-1]) and np.array_equal(res.p, sol.p[-1])
 
 
 def test_ensemble_lanes_are_lyapunov_alone_at_any_thread_count():

@@ -60,7 +60,8 @@ class LyapunovResult:
     message : str
         What happened, in words (empty when completed).
     q, p : ndarray
-        The trajectory's state at the last step (the state ``integrate`` reaches, bit for bit).
+        The trajectory's state at step `steps_done` (the state ``integrate`` reaches, bit for
+        bit); after a blow-up, the last state that was tested finite.
     dq, dp : ndarray of shape (K, n)
         The orthonormal deviation vectors at the last step.
     second_derivatives : str

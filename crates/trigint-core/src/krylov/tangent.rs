@@ -156,6 +156,10 @@ pub fn tangent<P: Potential>(
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()));
         if !finite {
+            // the state before this step, swapped out just now, is the last finite one (the
+            // state at `steps_done`): it is the one returned
+            std::mem::swap(&mut q, &mut q_next);
+            std::mem::swap(&mut p, &mut p_next);
             book.blow_up(step, "the trajectory or a deviation");
             break;
         }

@@ -332,6 +332,9 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             0 => u64::MAX,
             r => r,
         };
+        // The ingredients of the state at the last step that passed the finite test (q_n,
+        // d_{n+1}, d_n), so that a run that blows up still returns the state at `steps_done`.
+        let mut kept: Option<[Vec<L>; 3]> = None;
         let mut step = 1;
         while step <= request.n_steps {
             // The next step with an event: a renormalization, a test, a report, the last.
@@ -355,6 +358,12 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
                 break;
             }
             book.out.steps_done = step;
+            if request.n_steps > step {
+                let k = kept.get_or_insert_with(|| std::array::from_fn(|_| vec![L::zero(); n]));
+                k[0].copy_from_slice(&self.prev_q);
+                k[1].copy_from_slice(&self.st.d.get()[..n]);
+                k[2].copy_from_slice(&self.prev_d);
+            }
             if book.due(step) {
                 let dev = &mut self.dev;
                 book.renormalize(
@@ -370,25 +379,27 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             }
             step += 1;
         }
-        // The state at the last step reached: q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ),
-        // an observing step's numbers.
+        // The state at the last step reached (at a blow-up, the last that was tested finite):
+        // q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ), an observing step's numbers.
         let mut out = book.out;
-        if out.status == Status::BlowUp {
-            // The last finite state is not kept (only every CHECK steps is one tested): the
-            // samples before the blow-up are what the run has.
-            out.q = vec![f64::NAN; n];
-            out.p = vec![f64::NAN; n];
+        let ingredients = if out.status == Status::BlowUp {
+            kept.as_ref()
+                .map(|[q, d, prev_d]| (&q[..], &d[..], &prev_d[..]))
         } else {
-            let mut p = vec![L::zero(); n];
-            recursion::momenta_after_step(
-                self.sh,
-                &self.k,
-                &self.st.d.get()[..n],
-                &self.prev_d,
-                &mut p,
-            );
-            out.q = self.prev_q.iter().map(|x| x.lane(0)).collect();
-            out.p = p.iter().map(|x| x.lane(0)).collect();
+            Some((&self.prev_q[..], &self.st.d.get()[..n], &self.prev_d[..]))
+        };
+        match ingredients {
+            Some((q, d, prev_d)) => {
+                let mut p = vec![L::zero(); n];
+                recursion::momenta_after_step(self.sh, &self.k, d, prev_d, &mut p);
+                out.q = q.iter().map(|x| x.lane(0)).collect();
+                out.p = p.iter().map(|x| x.lane(0)).collect();
+            }
+            // a blow-up before the first test: no finite state after the start
+            None => {
+                out.q = vec![f64::NAN; n];
+                out.p = vec![f64::NAN; n];
+            }
         }
         out.dq = std::mem::take(&mut self.dev.prev_q);
         out.dp = std::mem::take(&mut self.dev.dp);
