@@ -56,6 +56,25 @@ def test_a_built_potential_pickles_as_its_description():
     assert again.spec["kind"] == "program"
 
 
+def test_a_problem_converts_its_layout_and_methods_once_and_they_pickle_as_descriptions():
+    prob = ti.problems.wave(64, rho=1.0, potential="u**4/4")
+    x = prob.grid[0]
+    u0, v0 = 0.1 * np.cos(x), 0.05 * np.sin(2 * x)
+    a = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=20, save_every=10)
+    lay = _native.core_layout(prob)
+    (co, handle), = prob.__dict__["_core_methods"].values()
+    b = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=20, save_every=10)
+    assert _native.core_layout(prob) is lay and prob.__dict__["_core_methods"][id(co)][1] is handle
+    assert np.array_equal(a.q, b.q)
+    layout, method = pickle.loads(pickle.dumps((lay.spec, handle)))
+    assert isinstance(layout, _core.Layout) and isinstance(method, _core.Method)
+    assert np.array_equal(method.spec["chi"], handle.spec["chi"])
+    # the unpickled handles run the same trajectory as the descriptions they came from
+    out = _core.integrate(_native.problem_potential(prob, lay), layout, method, lay.to_core(u0), lay.to_core(v0),
+                          20, 10, "two-step", True, 1024)
+    assert np.array_equal(lay.to_user(out.samples[0]["q"]), a.q)
+
+
 def test_every_native_kind_is_read_from_its_description_by_the_core():
     """The binding converts a description as plain data; the core reads each kind's fields and
     says which one is wrong."""

@@ -194,6 +194,24 @@ def method_spec(co, lay: CoreLayout, fast: np.ndarray) -> dict:
     return spec
 
 
+#: converted methods kept per problem, as many as the coefficients kept there
+METHODS_KEPT = 4
+
+
+def core_method(problem, co, lay: CoreLayout):
+    """The core's form of the coefficients `co` (``_core.Method``: the rows in the core's order,
+    converted once), kept on the problem for the next call with the same coefficient object."""
+    kept = problem.__dict__.setdefault("_core_methods", {})
+    hit = kept.get(id(co))
+    if hit is not None and hit[0] is co:
+        return hit[1]
+    handle = _core.Method(method_spec(co, lay, problem.omega > 0))
+    if len(kept) >= METHODS_KEPT:
+        kept.pop(next(iter(kept)))
+    kept[id(co)] = (co, handle)  # co kept alive, so that its id is not reused
+    return handle
+
+
 def potential_spec(potential, lay: CoreLayout) -> dict:
     """The potential's description, with its inputs taken from the core's coordinates."""
     spec = potential.describe(lay.perm.size)
@@ -306,9 +324,8 @@ def _permute_map(m: dict, inv: np.ndarray) -> dict:
 def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, callback):
     """Runs one trajectory; returns the core's RunResult with states in the user's order."""
     lay = core_layout(problem)
-    fast = problem.omega > 0
     out = _core.integrate(
-        problem_potential(problem, lay), lay.spec, method_spec(co, lay, fast),
+        problem_potential(problem, lay), lay.spec, core_method(problem, co, lay),
         lay.to_core(q0), lay.to_core(p0), int(n_steps), int(save_every), form, bool(track),
         int(every), callback,
     )

@@ -93,7 +93,7 @@ class Recursion:
         if potential is None:
             potential = _native.problem_potential(problem, lay)
         order = None if lay.identity and lay.basis is None and lay.transform is None else lay
-        return _recursion_tangent(potential, lay.spec, order, _native.method_spec(co, lay, problem.omega > 0),
+        return _recursion_tangent(potential, lay.spec, order, _native.core_method(problem, co, lay),
                                   q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, every, callback)
 
     def tangent_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, count: int, threads) -> tuple:

@@ -1,13 +1,15 @@
 //! `_core.Potential`: a potential built (its tape compiled to machine code, its FFTs planned)
 //! once and passed to every entry point instead of its description; `_core.Layout`: a problem's
 //! arrangement converted once (a wave equation's has tens of thousands of blocks and pairs).
-//! Both pickle as their descriptions, so a worker process builds them once per chunk as before.
+//! `_core.Method`: a method's per-coordinate numbers converted once (a wave equation's are eight
+//! rows of tens of thousands). All pickle as their descriptions, so a worker process builds them
+//! once per chunk as before.
 
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use trigint_core::Layout;
+use trigint_core::{Layout, MethodCoefficients};
 
 use crate::convert;
 use crate::potential::{to_2d, values_and_forces, with_potential, NativePotential};
@@ -148,6 +150,65 @@ impl LayoutHandle {
     ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
         Ok((
             py.get_type::<LayoutHandle>().into_any(),
+            (self.spec.bind(py).clone(),),
+        ))
+    }
+}
+
+/// Method(spec): one method's numbers (`{"h": float, <row>: 1-d array, …}`), converted once.
+#[pyclass(frozen, module = "trigint._core", name = "Method")]
+pub struct MethodHandle {
+    pub method: MethodCoefficients,
+    spec: Py<PyDict>,
+}
+
+/// The method an entry point was given: a handle (converted already) or a description.
+pub enum GivenMethod<'py> {
+    Built(Bound<'py, MethodHandle>),
+    Described(Box<MethodCoefficients>),
+}
+
+impl GivenMethod<'_> {
+    pub fn get(&self) -> &MethodCoefficients {
+        match self {
+            GivenMethod::Built(h) => &h.get().method,
+            GivenMethod::Described(m) => m,
+        }
+    }
+}
+
+/// A `_core.Method` or a description dict.
+pub fn given_method<'py>(obj: &Bound<'py, PyAny>) -> PyResult<GivenMethod<'py>> {
+    if let Ok(h) = obj.cast::<MethodHandle>() {
+        return Ok(GivenMethod::Built(h.clone()));
+    }
+    Ok(GivenMethod::Described(Box::new(convert::method(
+        obj.cast::<PyDict>()?,
+    )?)))
+}
+
+#[pymethods]
+impl MethodHandle {
+    #[new]
+    fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(MethodHandle {
+            method: convert::method(spec)?,
+            spec: spec.clone().unbind(),
+        })
+    }
+
+    /// The description it was converted from.
+    #[getter]
+    fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
+        self.spec.bind(py).clone()
+    }
+
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        Ok((
+            py.get_type::<MethodHandle>().into_any(),
             (self.spec.bind(py).clone(),),
         ))
     }

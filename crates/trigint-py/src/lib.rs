@@ -54,7 +54,7 @@ fn integrate<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
     layout: &Bound<'py, PyAny>,
-    method: &Bound<'py, PyDict>,
+    method: &Bound<'py, PyAny>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
     n_steps: u64,
@@ -68,7 +68,8 @@ fn integrate<'py>(
     let pot = given.get();
     let given_layout = handle::given_layout(layout)?;
     let lay = given_layout.get();
-    let co = convert::method(method)?;
+    let given_method = handle::given_method(method)?;
+    let co = given_method.get();
     let form = convert::form(form)?;
     let record = convert::record(Some(save_every), track);
     let (q0, p0) = (convert::vec1(q0), convert::vec1(p0));
@@ -81,7 +82,7 @@ fn integrate<'py>(
                 report: &mut report,
             };
             with_potential!(pot, |p| trigint_core::integrate(
-                p, lay, &co, &q0, &p0, n_steps, form, record, control
+                p, lay, co, &q0, &p0, n_steps, form, record, control
             ))
         })
     };
@@ -273,6 +274,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<handle::LayoutHandle>()?;
+    m.add_class::<handle::MethodHandle>()?;
     m.add_class::<RunResult>()?;
     m.add_class::<grid::FourierGrid>()?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;

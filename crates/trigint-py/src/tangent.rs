@@ -24,7 +24,7 @@ pub fn tangent<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
     layout: &Bound<'py, PyAny>,
-    method: &Bound<'py, PyDict>,
+    method: &Bound<'py, PyAny>,
     q0: PyReadonlyArray1<f64>,
     p0: PyReadonlyArray1<f64>,
     dq0: PyReadonlyArray2<f64>,
@@ -40,7 +40,8 @@ pub fn tangent<'py>(
     let pot = given.get();
     let given_layout = handle::given_layout(layout)?;
     let lay = given_layout.get();
-    let co = convert::method(method)?;
+    let given_method = handle::given_method(method)?;
+    let co = given_method.get();
     let (q0, p0, metric) = (convert::vec1(q0), convert::vec1(p0), convert::vec1(metric));
     let k = dq0.as_array().nrows();
     let flat = |a: PyReadonlyArray2<f64>| a.as_array().iter().copied().collect::<Vec<f64>>();
@@ -61,7 +62,7 @@ pub fn tangent<'py>(
             with_potential!(pot, |p| trigint_core::tangent(
                 p,
                 lay,
-                &co,
+                co,
                 &q0,
                 &p0,
                 &dq0,
