@@ -44,10 +44,19 @@ fn uniform(layout: &Layout, methods: &[&MethodCoefficients]) -> bool {
 macro_rules! with_shape {
     ($layout:expr, $methods:expr, |$sh:ident, $one:ident| $body:expr) => {{
         let lay: &Layout = $layout;
-        let uniform = P::SPECIALIZE && lay.n_blocks() <= 1 && uniform(lay, $methods);
-        // (A pair form, such as a wave equation's momentum, is never on a compile-time shape: the
-        // tight loop then knows at compile time that it has none.)
-        let small = P::SMALL_SHAPES && uniform && lay.pair_forms.is_none();
+        // Each condition starts with the potential's constant, alone: the compiler then drops
+        // the arms a potential does not want before building them (a chain, a wave equation or
+        // a Python callback has no copies of the kernels on compile-time shapes; a Python
+        // callback none on the uniform shape), as `isa::run_copy` does for instruction sets.
+        // (A pair form, such as a wave equation's momentum, is never on a compile-time shape:
+        // the tight loop then knows at compile time that it has none.)
+        let small = |dim: usize, n_slow: usize| {
+            lay.dim() == dim
+                && lay.n_slow == n_slow
+                && lay.pair_forms.is_none()
+                && lay.n_blocks() <= 1
+                && uniform(lay, $methods)
+        };
         macro_rules! fixed {
             ($n:literal, $ns:literal) => {{
                 let $sh = &Fixed::<$n, $ns>::new();
@@ -56,23 +65,22 @@ macro_rules! with_shape {
                 $body
             }};
         }
-        match (lay.dim(), lay.n_slow, small) {
-            // m = 1 and m = 3 of the FPU chain (the paper's problem): each shape is a set of
-            // kernel copies to build, so only the sizes people run for billions of steps.
-            (2, 1, true) => fixed!(2, 1),
-            (6, 3, true) => fixed!(6, 3),
-            _ if uniform => {
-                let $sh = &lay.uniform();
-                #[allow(dead_code)]
-                type $one = f64;
-                $body
-            }
-            _ => {
-                let $sh = &lay.dynamic();
-                #[allow(dead_code)]
-                type $one = f64;
-                $body
-            }
+        // m = 1 and m = 3 of the FPU chain (the paper's problem): each shape is a set of kernel
+        // copies to build, so only the sizes people run for billions of steps.
+        if P::SMALL_SHAPES && P::SPECIALIZE && small(2, 1) {
+            fixed!(2, 1)
+        } else if P::SMALL_SHAPES && P::SPECIALIZE && small(6, 3) {
+            fixed!(6, 3)
+        } else if P::SPECIALIZE && lay.n_blocks() <= 1 && uniform(lay, $methods) {
+            let $sh = &lay.uniform();
+            #[allow(dead_code)]
+            type $one = f64;
+            $body
+        } else {
+            let $sh = &lay.dynamic();
+            #[allow(dead_code)]
+            type $one = f64;
+            $body
         }
     }};
 }
