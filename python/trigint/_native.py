@@ -194,22 +194,31 @@ def method_spec(co, lay: CoreLayout, fast: np.ndarray) -> dict:
     return spec
 
 
-#: converted methods kept per problem, as many as the coefficients kept there
-METHODS_KEPT = 4
+#: objects kept per problem and kind (method coefficients, converted methods), for repeated calls
+KEPT_PER_PROBLEM = 4
+
+
+def kept_on(problem, kind: str, key, owner, make):
+    """``make()``, kept on `problem` under `kind` for the next call with the same `key`, as long
+    as `owner` (an object the key names by ``id``) is the same object; `owner` is kept alive with
+    it, so that its id is not reused. At most :data:`KEPT_PER_PROBLEM` per kind, the oldest
+    dropped first. (A problem's frequencies never change, so what is made from them stays valid.)"""
+    kept = problem.__dict__.setdefault(kind, {})
+    hit = kept.get(key)
+    if hit is not None and hit[0] is owner:
+        return hit[1]
+    made = make()
+    if len(kept) >= KEPT_PER_PROBLEM:
+        kept.pop(next(iter(kept)))
+    kept[key] = (owner, made)
+    return made
 
 
 def core_method(problem, co, lay: CoreLayout):
     """The core's form of the coefficients `co` (``_core.Method``: the rows in the core's order,
     converted once), kept on the problem for the next call with the same coefficient object."""
-    kept = problem.__dict__.setdefault("_core_methods", {})
-    hit = kept.get(id(co))
-    if hit is not None and hit[0] is co:
-        return hit[1]
-    handle = _core.Method(method_spec(co, lay, problem.omega > 0))
-    if len(kept) >= METHODS_KEPT:
-        kept.pop(next(iter(kept)))
-    kept[id(co)] = (co, handle)  # co kept alive, so that its id is not reused
-    return handle
+    return kept_on(problem, "_core_methods", id(co), co,
+                   lambda: _core.Method(method_spec(co, lay, problem.omega > 0)))
 
 
 def potential_spec(potential, lay: CoreLayout) -> dict:

@@ -167,24 +167,12 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     return sol
 
 
-#: method coefficients kept per problem, for repeated calls (a wave problem's 2¹⁶ frequencies
-#: take 17 ms to evaluate)
-COEFFICIENTS_KEPT = 4
-
-
 def method_coefficients(problem, method: Method, h: float, form: str):
     """``method.coefficients(h, problem.omega, form)``, kept on the problem for the next call
-    with the same method object, h and form (a problem's frequencies never change)."""
-    kept = problem.__dict__.setdefault("_coefficients_kept", {})
-    key = (id(method), h, form)
-    hit = kept.get(key)
-    if hit is not None and hit[0] is method:
-        return hit[1]
-    co = method.coefficients(h, problem.omega, form=form)
-    if len(kept) >= COEFFICIENTS_KEPT:
-        kept.pop(next(iter(kept)))
-    kept[key] = (method, co)  # the method kept alive, so that its id is not reused
-    return co
+    with the same method object, h and form (a wave problem's 2¹⁶ frequencies take 17 ms to
+    evaluate)."""
+    return _native.kept_on(problem, "_coefficients_kept", (id(method), h, form), method,
+                           lambda: method.coefficients(h, problem.omega, form=form))
 
 
 def _warn_near_resonance(co, method: Method) -> None:

@@ -95,121 +95,91 @@ impl Handle {
     }
 }
 
-/// Layout(spec): a problem's arrangement (`{"omega2", "n_slow", "block_ends", "pair_forms"}`),
-/// converted once.
-#[pyclass(frozen, module = "trigint._core", name = "Layout")]
-pub struct LayoutHandle {
-    pub layout: Layout,
-    spec: Py<PyDict>,
-}
-
-/// The layout an entry point was given: a handle (converted already) or a description.
-pub enum GivenLayout<'py> {
-    Built(Bound<'py, LayoutHandle>),
-    Described(Box<Layout>),
-}
-
-impl GivenLayout<'_> {
-    pub fn get(&self) -> &Layout {
-        match self {
-            GivenLayout::Built(h) => &h.get().layout,
-            GivenLayout::Described(l) => l,
+/// A class holding a value converted once from its description dict (by `$convert`), pickled
+/// as the description, with the enum and function by which an entry point takes either it or a
+/// description (converted then, for that call).
+macro_rules! converted_handle {
+    ($(#[$doc:meta])* $handle:ident, $py_name:tt, $value:ty, $convert:path, $given_enum:ident,
+     $given:ident) => {
+        $(#[$doc])*
+        #[pyclass(frozen, module = "trigint._core", name = $py_name)]
+        pub struct $handle {
+            pub value: $value,
+            spec: Py<PyDict>,
         }
-    }
-}
 
-/// A `_core.Layout` or a description dict.
-pub fn given_layout<'py>(obj: &Bound<'py, PyAny>) -> PyResult<GivenLayout<'py>> {
-    if let Ok(h) = obj.cast::<LayoutHandle>() {
-        return Ok(GivenLayout::Built(h.clone()));
-    }
-    Ok(GivenLayout::Described(Box::new(convert::layout(
-        obj.cast::<PyDict>()?,
-    )?)))
-}
-
-#[pymethods]
-impl LayoutHandle {
-    #[new]
-    fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
-        Ok(LayoutHandle {
-            layout: convert::layout(spec)?,
-            spec: spec.clone().unbind(),
-        })
-    }
-
-    /// The description it was converted from.
-    #[getter]
-    fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
-        self.spec.bind(py).clone()
-    }
-
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
-        Ok((
-            py.get_type::<LayoutHandle>().into_any(),
-            (self.spec.bind(py).clone(),),
-        ))
-    }
-}
-
-/// Method(spec): one method's numbers (`{"h": float, <row>: 1-d array, …}`), converted once.
-#[pyclass(frozen, module = "trigint._core", name = "Method")]
-pub struct MethodHandle {
-    pub method: MethodCoefficients,
-    spec: Py<PyDict>,
-}
-
-/// The method an entry point was given: a handle (converted already) or a description.
-pub enum GivenMethod<'py> {
-    Built(Bound<'py, MethodHandle>),
-    Described(Box<MethodCoefficients>),
-}
-
-impl GivenMethod<'_> {
-    pub fn get(&self) -> &MethodCoefficients {
-        match self {
-            GivenMethod::Built(h) => &h.get().method,
-            GivenMethod::Described(m) => m,
+        /// What an entry point was given: a handle (converted already) or a description.
+        pub enum $given_enum<'py> {
+            Built(Bound<'py, $handle>),
+            Described(Box<$value>),
         }
-    }
+
+        impl $given_enum<'_> {
+            pub fn get(&self) -> &$value {
+                match self {
+                    Self::Built(h) => &h.get().value,
+                    Self::Described(v) => v,
+                }
+            }
+        }
+
+        /// The handle, or a description dict converted for this call.
+        pub fn $given<'py>(obj: &Bound<'py, PyAny>) -> PyResult<$given_enum<'py>> {
+            if let Ok(h) = obj.cast::<$handle>() {
+                return Ok($given_enum::Built(h.clone()));
+            }
+            Ok($given_enum::Described(Box::new($convert(
+                obj.cast::<PyDict>()?,
+            )?)))
+        }
+
+        #[pymethods]
+        impl $handle {
+            #[new]
+            fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
+                Ok($handle {
+                    value: $convert(spec)?,
+                    spec: spec.clone().unbind(),
+                })
+            }
+
+            /// The description it was converted from.
+            #[getter]
+            fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
+                self.spec.bind(py).clone()
+            }
+
+            fn __reduce__<'py>(
+                &self,
+                py: Python<'py>,
+            ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+                Ok((
+                    py.get_type::<$handle>().into_any(),
+                    (self.spec.bind(py).clone(),),
+                ))
+            }
+        }
+    };
 }
 
-/// A `_core.Method` or a description dict.
-pub fn given_method<'py>(obj: &Bound<'py, PyAny>) -> PyResult<GivenMethod<'py>> {
-    if let Ok(h) = obj.cast::<MethodHandle>() {
-        return Ok(GivenMethod::Built(h.clone()));
-    }
-    Ok(GivenMethod::Described(Box::new(convert::method(
-        obj.cast::<PyDict>()?,
-    )?)))
-}
+converted_handle!(
+    /// Layout(spec): a problem's arrangement (`{"omega2", "n_slow", "block_ends",
+    /// "pair_forms"}`), converted once.
+    LayoutHandle,
+    "Layout",
+    Layout,
+    convert::layout,
+    GivenLayout,
+    given_layout
+);
 
-#[pymethods]
-impl MethodHandle {
-    #[new]
-    fn new(spec: &Bound<'_, PyDict>) -> PyResult<Self> {
-        Ok(MethodHandle {
-            method: convert::method(spec)?,
-            spec: spec.clone().unbind(),
-        })
-    }
-
-    /// The description it was converted from.
-    #[getter]
-    fn spec<'py>(&self, py: Python<'py>) -> Bound<'py, PyDict> {
-        self.spec.bind(py).clone()
-    }
-
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
-        Ok((
-            py.get_type::<MethodHandle>().into_any(),
-            (self.spec.bind(py).clone(),),
-        ))
-    }
-}
+converted_handle!(
+    /// Method(spec): one method's numbers (`{"h": float, <row>: 1-d array, …}`), converted
+    /// once.
+    MethodHandle,
+    "Method",
+    MethodCoefficients,
+    convert::method,
+    GivenMethod,
+    given_method
+);

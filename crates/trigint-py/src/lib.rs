@@ -23,11 +23,12 @@ use trigint_core::{
 
 use potential::{to_2d, with_potential, NativePotential};
 
+use result::RunResult;
+
 /// Big blocks freed by one call kept for the next (a 2^16-point wave call allocates about forty
 /// of 512 KiB; faulting them in again cost a third of a short call): see `trigint_core::recycle`.
 #[global_allocator]
 static ALLOCATOR: trigint_core::recycle::Recycling = trigint_core::recycle::Recycling::new();
-use result::RunResult;
 
 /// Core errors become Python exceptions here and nowhere else.
 fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {

@@ -177,17 +177,26 @@ fn c2r_pairs<const K: usize>(
         let x_rev = Complex64::new(hi[at] * r, -hi[at + 1] * r);
         let sum = x + x_rev;
         let diff = x - x_rev;
-        let twiddled_re_sum = sum * tw[t].re;
-        let twiddled_im_sum = sum * tw[t].im;
-        let twiddled_re_diff = diff * tw[t].re;
-        let twiddled_im_diff = diff * tw[t].im;
-        let real = twiddled_re_sum.im + twiddled_im_diff.re;
-        let imag = twiddled_im_sum.im - twiddled_re_diff.re;
+        let (real, imag) = twiddled(sum, diff, tw[t]);
         left[t] = Complex64::new(sum.re - real, diff.im - imag);
         right[K - 1 - t] = Complex64::new(sum.re + real, -imag - diff.im);
     }
     buffer[j..j + K].copy_from_slice(&left);
     buffer[m - j - K..m - j].copy_from_slice(&right);
+}
+
+/// realfft's twiddled terms of a pair of bins, with sum = x + x_rev, diff = x − x_rev and the
+/// twiddle w: (Im(sum·w.re) + Re(diff·w.im), Im(sum·w.im) − Re(diff·w.re)), in its order.
+#[inline(always)]
+fn twiddled(sum: Complex64, diff: Complex64, w: Complex64) -> (f64, f64) {
+    let twiddled_re_sum = sum * w.re;
+    let twiddled_im_sum = sum * w.im;
+    let twiddled_re_diff = diff * w.re;
+    let twiddled_im_diff = diff * w.im;
+    (
+        twiddled_re_sum.im + twiddled_im_diff.re,
+        twiddled_im_sum.im - twiddled_re_diff.re,
+    )
 }
 
 /// The real-to-complex post-pass of the pairs of bins (j + t, m − 1 − j − t), t < K, of the
@@ -208,14 +217,9 @@ fn r2c_pairs<const K: usize>(
         let (x, x_rev) = (lo[t], hi[K - 1 - t]);
         let sum = x + x_rev;
         let diff = x - x_rev;
-        let twiddled_re_sum = sum * tw[t].re;
-        let twiddled_im_sum = sum * tw[t].im;
-        let twiddled_re_diff = diff * tw[t].re;
-        let twiddled_im_diff = diff * tw[t].im;
         let half_sum_re = 0.5 * sum.re;
         let half_diff_im = 0.5 * diff.im;
-        let real = twiddled_re_sum.im + twiddled_im_diff.re;
-        let imag = twiddled_im_sum.im - twiddled_re_diff.re;
+        let (real, imag) = twiddled(sum, diff, tw[t]);
         // Bin j + t: (half_sum_re + real, half_diff_im + imag); bin m − 1 − j − t:
         // (half_sum_re − real, imag − half_diff_im); each bin c to (c.re·s2, −c.im·s2).
         left[t] = [(half_sum_re + real) * s2, -(half_diff_im + imag) * s2];
