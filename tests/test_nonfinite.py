@@ -76,7 +76,7 @@ def test_dense_and_krylov_stop_at_the_same_step_with_the_same_states(potential):
 def test_krylov_reports_a_non_finite_potential_even_when_energies_are_not_tracked(track):
     sol, _ = _run(_problem("krylov", LOG), save_every=50, track_energies=track)
     assert sol.status == "blow-up" and sol.n_steps == 2
-    assert sol.message == ("the solution blew up: the state is not finite at step 3 (t = 0.03); kept the samples "
+    assert sol.message == ("the solution blew up: the state at step 3 is not finite; kept the samples "
                            "up to step 2, the last finite state")
     assert sol.steps.tolist() == [0, 2]
 

@@ -348,7 +348,7 @@ def test_the_krylov_path_stops_at_a_blow_up_keeping_the_last_finite_state():
     a = (scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) * 100.0).tocsr()
     pot = ti.ChainPotential(n).add("-exp(3*y)", "y", sites=range(n))
     prob = ti.OscillatoryProblem(stiffness=a, potential=pot, path="krylov")
-    with pytest.warns(RuntimeWarning, match="not finite at step"):
+    with pytest.warns(RuntimeWarning, match="the state at step [0-9]+ is not finite"):
         sol = ti.integrate(prob, "B", np.full(n, 1.0), np.zeros(n), h=0.05, n_steps=2000, save_every=100)
     assert sol.status == "blow-up" and 0 < sol.n_steps < 2000
     assert sol.steps.tolist() == [0, sol.n_steps] and np.all(np.isfinite(sol.q))

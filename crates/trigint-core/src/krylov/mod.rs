@@ -12,6 +12,7 @@
 mod csr;
 mod functions;
 mod lanczos;
+mod run;
 mod tangent;
 mod tridiagonal;
 
@@ -24,13 +25,13 @@ pub use functions::{
     Filter, Function, MatrixFunctions, Trigonometric, Values, FUNCTIONS, FUNCTION_COUNT,
 };
 pub use lanczos::{Lanczos, Product, MAX_ITERATIONS};
+use run::KrylovRun;
 pub use tangent::tangent;
 pub use tridiagonal::Tridiagonal;
 
-use crate::channels::{channel_count, FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
-use crate::energy::Samples;
+use crate::channels::{FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
 use crate::error::{CoreError, CoreResult};
-use crate::output::{Record, Status, TrajectoryOutput};
+use crate::output::{Record, TrajectoryOutput};
 use crate::potential::Potential;
 use crate::run::{check_state, Control};
 
@@ -41,20 +42,16 @@ pub struct KrylovCounts {
     pub products: u64,
 }
 
-/// The channels of a Krylov run: the table's main channels and its one block.
-const CHANNELS: usize = FIRST_BLOCK + 1;
-
-/// The energies at a state in channel order: H = ½|p|² + ½qᵀAq + U, the quadratic part as H_ω
-/// and as the one block's energy, U as H_slow, NaN for the modified energy (it needs the
-/// frequencies).
-fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64; CHANNELS] {
+/// The main channels at a state: H = ½|p|² + ½qᵀAq + U, the quadratic part as H_ω (and as the
+/// one block's energy, which the row repeats), U as H_slow, NaN for the modified energy (it
+/// needs the frequencies).
+fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64; FIRST_BLOCK] {
     a.apply(q, scratch);
     let quadratic = 0.5 * (dot(p, p) + dot(q, scratch));
-    let mut e = [f64::NAN; CHANNELS];
+    let mut e = [f64::NAN; FIRST_BLOCK];
     e[TOTAL] = quadratic + u;
     e[OSCILLATORY] = quadratic;
     e[SLOW] = u;
-    e[FIRST_BLOCK] = quadratic;
     e
 }
 
@@ -76,6 +73,13 @@ impl Force {
             value: None,
         }
     }
+
+    fn copy_from(&mut self, other: &Force) {
+        self.psi.copy_from_slice(&other.psi);
+        self.psi_over_chi.copy_from_slice(&other.psi_over_chi);
+        self.c_psi_over_chi.copy_from_slice(&other.c_psi_over_chi);
+        self.value = other.value;
+    }
 }
 
 /// Why a step could not be taken.
@@ -91,6 +95,7 @@ struct Stepper<'a, P: Potential> {
     f: &'a dyn MatrixFunctions,
     h: f64,
     phi: bool,
+    settings: Settings,
     lz: Lanczos,
     ws: P::Workspace<f64>,
     x: Vec<f64>,
@@ -109,6 +114,7 @@ impl<'a, P: Potential> Stepper<'a, P> {
             f,
             h,
             phi: f.phi_is_identity(),
+            settings: lanczos,
             lz: Lanczos::new(n, lanczos.tol, lanczos.max_iterations),
             ws: pot.workspace::<f64>(),
             x: v(),
@@ -293,135 +299,22 @@ pub fn integrate<P: Potential>(
 ) -> CoreResult<(TrajectoryOutput, KrylovCounts)> {
     check(a, h, lanczos, q0, p0, &record)?;
     pot.check_dim(a.n())?;
-    let n = a.n();
-    let channels = channel_count(1, 0);
-    debug_assert_eq!(channels, CHANNELS);
-    let mut st = Stepper::new(a, pot, functions, h, lanczos);
-    let (tol, max_iterations) = (lanczos.tol, lanczos.max_iterations);
-    let mut scratch = vec![0.0; n];
-    let (mut q, mut p) = (q0.to_vec(), p0.to_vec());
-    let (mut q_next, mut p_next) = (vec![0.0; n], vec![0.0; n]);
-    let u0 = st.value(&q, None)?;
-    let e0 = energies(a, &mut scratch, &q, &p, u0);
-    let mut samples = Samples::default();
-    let keep = |s: &mut Samples, step: u64, q: &[f64], p: &[f64], e: &[f64; CHANNELS]| {
-        s.steps.push(step);
-        s.q.extend_from_slice(q);
-        s.p.extend_from_slice(p);
-        s.energies.extend_from_slice(e);
+    let mut run = KrylovRun::new(
+        Stepper::new(a, pot, functions, h, lanczos),
+        q0,
+        p0,
+        n_steps,
+        record,
+    );
+    let out = crate::run::run(&mut run, control)?;
+    let counts = KrylovCounts {
+        iterations: run.step.lz.iterations,
+        products: run.step.lz.products,
     };
-    let counts = |st: &Stepper<P>| KrylovCounts {
-        iterations: st.lz.iterations,
-        products: st.lz.products,
-    };
-    if !u0.is_finite() {
-        let message = format!(
-            "the potential is not finite at the initial state (U(q0) = {u0}); nothing was integrated"
-        );
-        let out = TrajectoryOutput {
-            status: Status::BlowUp,
-            steps_done: 0,
-            initial_energies: e0.to_vec(),
-            max_deviation: vec![f64::NAN; channels],
-            samples,
-            message,
-        };
-        return Ok((out, counts(&st)));
-    }
-    let save_every = record.save_every;
-    if save_every.is_some() {
-        keep(&mut samples, 0, &q, &p, &e0);
-    }
-    let mut worst = [0.0f64; CHANNELS];
-    let (mut g, mut g_next) = (Force::new(n), Force::new(n));
-    let mut status = Status::Completed;
-    let mut message = format!("{n_steps} steps");
-    let mut done = 0u64;
-    let lanczos_failure = |done: u64| {
-        format!(
-            "stopped before step {} (t = {}): the Lanczos method did not reach the tolerance {tol:e} in \
-             {max_iterations} steps (h·sqrt(largest eigenvalue) too large for this tolerance; take a \
-             smaller h or a larger tol)",
-            done + 1,
-            (done + 1) as f64 * h
-        )
-    };
-    let mut last_e = e0;
-    match st.force(&q, &mut g)? {
-        Err(Stop::Lanczos) => {
-            status = Status::BlowUp;
-            message = lanczos_failure(0);
-        }
-        Ok(()) => {
-            while done < n_steps {
-                if let Err(Stop::Lanczos) =
-                    st.step(&q, &p, &g, &mut q_next, &mut p_next, &mut g_next)?
-                {
-                    status = Status::BlowUp;
-                    message = lanczos_failure(done);
-                    break;
-                }
-                let u = st.value(&q_next, g_next.value)?;
-                let finite = u.is_finite()
-                    && q_next.iter().all(|x| x.is_finite())
-                    && p_next.iter().all(|x| x.is_finite());
-                if !finite {
-                    status = Status::BlowUp;
-                    message = format!(
-                        "the solution blew up: the state is not finite at step {} (t = {}); kept the \
-                         samples up to step {done}, the last finite state",
-                        done + 1,
-                        (done + 1) as f64 * h
-                    );
-                    break;
-                }
-                std::mem::swap(&mut q, &mut q_next);
-                std::mem::swap(&mut p, &mut p_next);
-                std::mem::swap(&mut g, &mut g_next);
-                done += 1;
-                let sample = save_every.is_some_and(|s| done.is_multiple_of(s)) || done == n_steps;
-                if record.track || sample {
-                    last_e = energies(a, &mut scratch, &q, &p, u);
-                    for c in 0..CHANNELS {
-                        worst[c] = worst[c].max((last_e[c] - e0[c]).abs());
-                    }
-                }
-                if sample && save_every.is_some() {
-                    keep(&mut samples, done, &q, &p, &last_e);
-                }
-                if done.is_multiple_of(control.every.max(1))
-                    && done < n_steps
-                    && !(control.report)(done)
-                {
-                    status = Status::Interrupted;
-                    message = format!(
-                        "interrupted after step {done} of {n_steps}; kept the samples up to there, \
-                         the state at step {done} included"
-                    );
-                    break;
-                }
-            }
-        }
-    }
-    if save_every.is_some() && samples.steps.last() != Some(&done) {
-        let u = st.value(&q, None)?;
-        let e = energies(a, &mut scratch, &q, &p, u);
-        keep(&mut samples, done, &q, &p, &e);
-    }
-    let max_deviation = if record.track {
-        worst.to_vec()
-    } else {
-        vec![f64::NAN; channels]
-    };
-    let out = TrajectoryOutput {
-        status,
-        steps_done: done,
-        initial_energies: e0.to_vec(),
-        max_deviation,
-        samples,
-        message,
-    };
-    Ok((out, counts(&st)))
+    Ok((
+        out.into_iter().next().expect("one lane, one output"),
+        counts,
+    ))
 }
 
 /// Integrates many trajectories of one Krylov problem in parallel on the current rayon pool,

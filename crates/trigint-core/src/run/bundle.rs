@@ -1,16 +1,12 @@
-//! A bundle of trajectories stepped together from the first step to the last: the run loop,
-//! written once. A single trajectory is a bundle of one `f64` lane; a batch is many bundles of
-//! `Lanes<W>`.
+//! A bundle of trajectories stepped together by the recursion: the [`Stepper`] of the
+//! two-step and one-step forms. A single trajectory is a bundle of one `f64` lane; a batch is
+//! many bundles of `Lanes<W>`. The run loop is [`drive`](super::drive)'s.
 //!
 //! Steps between events run in a tight loop ([`Bundle::hot`]): the step, the energy sums when
-//! they are tracked, and a finiteness test of the total energy. Events are the steps that need
-//! more: a sample, a lane's last step, a progress report, and a check every few steps. An event
+//! they are tracked, and a finiteness test of the total energy every [`CHECK`] steps. An event
 //! is a careful step: it observes the whole state, records what is asked for, and keeps that
-//! observation as the last good one. When a lane turns non-finite, the bundle goes back to the
-//! checkpoint at the start of the segment and replays it carefully (the same operations, so the
-//! same bits) up to the first non-finite step, so the last finite state is kept exactly.
-//! Lanes that have ended (completed or blown up) keep running but are masked out of every test
-//! and record.
+//! observation as the last good one. Lanes that have ended (completed or blown up) keep running
+//! but are masked out of every test and record.
 //!
 //! Between steps the state holds q_n and d_n (two-step form; the force g(φq_n) is evaluated at
 //! the top of step n, so it is not carried from one step to the next) or q_n, p_n and g_n
@@ -26,14 +22,13 @@ use crate::real::{LaneSet, Real};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Shape, Storage};
 
+use super::drive::{self, Stepper};
+
 /// Steps between finiteness tests in the tight loop: of the positions (untracked runs; a NaN or
 /// an infinity never leaves the recursion, so a later test finds an earlier blow-up), or of a
 /// sticky sum of the total energies (tracked runs). A test costs a branch on the step's longest
 /// chain (2.3 of 12.3 ns per FPU step when done every step).
 pub(super) const CHECK: u64 = 64;
-/// Steps between events at most: this bounds the cost of a replay.
-pub(super) const SEGMENT: u64 = 4096;
-
 /// How a run reports progress and learns that it should stop.
 pub struct Control<'c> {
     /// Steps between reports (also how often a stop request is noticed).
@@ -53,16 +48,32 @@ pub(super) struct Observed<L: Real, Sh: Shape> {
 }
 
 /// One lane's bookkeeping.
-pub(super) struct Lane {
-    pub(super) n_steps: u64,
-    pub(super) status: Status,
-    pub(super) steps_done: u64,
-    pub(super) initial: Vec<f64>,
+pub(crate) struct Lane {
+    pub(crate) n_steps: u64,
+    pub(crate) status: Status,
+    pub(crate) steps_done: u64,
+    pub(crate) initial: Vec<f64>,
     /// The extremes when the lane ended.
-    pub(super) high: Vec<f64>,
-    pub(super) low: Vec<f64>,
-    pub(super) samples: Samples,
-    pub(super) message: String,
+    pub(crate) high: Vec<f64>,
+    pub(crate) low: Vec<f64>,
+    pub(crate) samples: Samples,
+    pub(crate) message: String,
+}
+
+impl Lane {
+    /// A lane to run for `n_steps` steps with `channels` energy channels.
+    pub(crate) fn new(n_steps: u64, channels: usize) -> Self {
+        Lane {
+            n_steps,
+            status: Status::Completed,
+            steps_done: 0,
+            initial: vec![f64::NAN; channels],
+            high: Vec::new(),
+            low: Vec::new(),
+            samples: Samples::default(),
+            message: String::new(),
+        }
+    }
 }
 
 /// What a replay restarts from: q, d, p and the extremes at the last check.
@@ -124,16 +135,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         let z = || Sh::S::<L>::filled(sh.n(), L::zero());
         let lanes = n_steps
             .iter()
-            .map(|&n| Lane {
-                n_steps: n,
-                status: Status::Completed,
-                steps_done: 0,
-                initial: vec![f64::NAN; FIRST_BLOCK + n_blocks],
-                high: Vec::new(),
-                low: Vec::new(),
-                samples: Samples::default(),
-                message: String::new(),
-            })
+            .map(|&n| Lane::new(n, FIRST_BLOCK + n_blocks))
             .collect();
         Bundle {
             sh,
@@ -196,67 +198,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     /// Runs every lane to its last step (or blow-up, or interruption).
     #[inline(always)]
     pub fn run(mut self, control: &mut Control) -> CoreResult<Vec<TrajectoryOutput>> {
-        match self.steps(control) {
-            Ok(()) => {}
-            // Stopped from inside the potential: end at the last observed state.
-            Err(crate::error::CoreError::Interrupted) => {
-                let step = self.good.step;
-                self.interrupt(step);
-            }
-            Err(e) => return Err(e),
-        }
-        Ok(self.finish())
-    }
-
-    #[inline(always)]
-    fn steps(&mut self, control: &mut Control) -> CoreResult<()> {
-        self.start()?;
-        let mut n = 1;
-        while !self.active.is_empty() {
-            let e = self.next_event(n, SEGMENT, control.every);
-            self.save_checkpoint();
-            let detected = self.hot_dispatch(n, e)?;
-            if let Some(j) = detected {
-                // A lane is not finite at step j or before: replay n..=j carefully.
-                self.restore_checkpoint()?;
-                for i in n..=j {
-                    let sums = self.observe_state()?;
-                    self.careful(i, sums, false)?;
-                }
-                n = j + 1;
-                continue;
-            }
-            let mut sums = self.observe_state()?;
-            if e > n && !self.nonfinite(&sums).is_empty() {
-                // The last good state is at n − 1, not e − 1: replay the segment carefully.
-                self.restore_checkpoint()?;
-                for i in n..e {
-                    let s = self.observe_state()?;
-                    self.careful(i, s, false)?;
-                }
-                sums = self.observe_state()?;
-            }
-            self.careful(e, sums, true)?;
-            if !self.active.is_empty() && e.is_multiple_of(control.every) && !(control.report)(e) {
-                self.interrupt(e);
-            }
-            n = e + 1;
-        }
-        Ok(())
-    }
-
-    /// The next step that needs a careful observation.
-    fn next_event(&self, n: u64, check: u64, every: u64) -> u64 {
-        let up_to_multiple = |s: u64| n.div_ceil(s) * s;
-        let mut e = n.saturating_add(check - 1);
-        if let Some(s) = self.record.save_every {
-            e = e.min(up_to_multiple(s));
-        }
-        e = e.min(up_to_multiple(every.max(1)));
-        for b in self.active.iter() {
-            e = e.min(self.lanes[b].n_steps);
-        }
-        e
+        drive::run(&mut self, control)
     }
 
     /// ½ Σ per block: the block energies I_j in `block_sums`.
@@ -267,9 +209,64 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         }
     }
 
+    /// Completes the step after [`Stepper::observe`].
+    pub(super) fn advance_after_state(&mut self) -> CoreResult<()> {
+        match self.form {
+            Form::TwoStep => {
+                recursion::finish_state_step(self.sh, &mut self.st);
+                Ok(())
+            }
+            Form::OneStep => {
+                recursion::one_step_position(self.sh, &self.k, &mut self.st);
+                self.evaluate(true)?;
+                recursion::one_step_momentum(self.sh, &self.k, &mut self.st);
+                Ok(())
+            }
+        }
+    }
+
+    /// The main channels, (ℓ > 1) the block energies of the current sums and the per-axis
+    /// channels of the state (q_n in `q`, p_n in `p`).
+    pub(super) fn channels(&mut self, sums: &Sums<L>) -> ([L; FIRST_BLOCK], Vec<L>) {
+        let main = sums.channels(self.st.u, self.w.plain_modified);
+        let mut blocks = if self.sh.single_block() {
+            Vec::new()
+        } else {
+            self.half_blocks();
+            self.block_sums.clone()
+        };
+        if let Some(f) = self.pairs {
+            f.evaluate(self.st.q.get(), self.st.p.get(), &mut self.axes);
+            blocks.extend_from_slice(&self.axes);
+        }
+        (main, blocks)
+    }
+}
+
+impl<L: Real, Sh: Shape, P: Potential> Stepper for Bundle<'_, L, Sh, P> {
+    type Observation = Sums<L>;
+    const SEGMENT: u64 = 4096;
+
+    fn active(&self) -> LaneSet {
+        self.active
+    }
+
+    fn record(&self) -> Record {
+        self.record
+    }
+
+    fn n_steps(&self, b: usize) -> u64 {
+        self.lanes[b].n_steps
+    }
+
+    #[inline(always)]
+    fn hot(&mut self, n: u64, e: u64) -> CoreResult<Option<u64>> {
+        self.hot_dispatch(n, e)
+    }
+
     /// The energy sums of the current step with p_n in the state's `p` and q still at q_n
     /// (the two-step form evaluates its force here).
-    pub(super) fn observe_state(&mut self) -> CoreResult<Sums<L>> {
+    fn observe(&mut self) -> CoreResult<Sums<L>> {
         Ok(match self.form {
             Form::TwoStep => {
                 self.evaluate(true)?;
@@ -294,35 +291,19 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         })
     }
 
-    /// Completes the step after [`observe_state`](Self::observe_state).
-    pub(super) fn advance_after_state(&mut self) -> CoreResult<()> {
-        match self.form {
-            Form::TwoStep => {
-                recursion::finish_state_step(self.sh, &mut self.st);
-                Ok(())
-            }
-            Form::OneStep => {
-                recursion::one_step_position(self.sh, &self.k, &mut self.st);
-                self.evaluate(true)?;
-                recursion::one_step_momentum(self.sh, &self.k, &mut self.st);
-                Ok(())
-            }
-        }
-    }
-
-    pub(super) fn nonfinite(&self, sums: &Sums<L>) -> LaneSet {
+    fn nonfinite(&self, sums: &Sums<L>) -> LaneSet {
         let main = sums.channels(self.st.u, self.w.plain_modified);
         main[TOTAL].nonfinite_lanes() & self.active
     }
 
-    pub(super) fn save_checkpoint(&mut self) {
+    fn save_checkpoint(&mut self) {
         self.checkpoint.0.get_mut().copy_from_slice(self.st.q.get());
         self.checkpoint.1.get_mut().copy_from_slice(self.st.d.get());
         self.checkpoint.2.get_mut().copy_from_slice(self.st.p.get());
         self.checkpoint.3.clone_from(&self.ext);
     }
 
-    pub(super) fn restore_checkpoint(&mut self) -> CoreResult<()> {
+    fn restore_checkpoint(&mut self) -> CoreResult<()> {
         self.st.q.get_mut().copy_from_slice(self.checkpoint.0.get());
         self.st.d.get_mut().copy_from_slice(self.checkpoint.1.get());
         self.st.p.get_mut().copy_from_slice(self.checkpoint.2.get());
@@ -334,7 +315,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     }
 
     /// Step 0: observe (q_0, p_0) and start the recursion.
-    pub(super) fn start(&mut self) -> CoreResult<()> {
+    fn start(&mut self) -> CoreResult<()> {
         self.evaluate(true)?;
         let sums = recursion::sums_of_state(
             self.sh,
@@ -358,27 +339,23 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         }
     }
 
-    /// The main channels, (ℓ > 1) the block energies of the current sums and the per-axis
-    /// channels of the state (q_n in `q`, p_n in `p`).
-    pub(super) fn channels(&mut self, sums: &Sums<L>) -> ([L; FIRST_BLOCK], Vec<L>) {
-        let main = sums.channels(self.st.u, self.w.plain_modified);
-        let mut blocks = if self.sh.single_block() {
-            Vec::new()
-        } else {
-            self.half_blocks();
-            self.block_sums.clone()
-        };
-        if let Some(f) = self.pairs {
-            f.evaluate(self.st.q.get(), self.st.p.get(), &mut self.axes);
-            blocks.extend_from_slice(&self.axes);
-        }
-        (main, blocks)
-    }
-
     /// A careful step: observe step i from `sums`, handle blow-ups, record (events), advance.
-    pub(super) fn careful(&mut self, i: u64, sums: Sums<L>, event: bool) -> CoreResult<()> {
+    fn careful(&mut self, i: u64, sums: Sums<L>, event: bool) -> CoreResult<()> {
         let (main, blocks) = self.channels(&sums);
         self.take_observation(i, &main, &blocks, event);
         self.advance_after_state()
+    }
+
+    fn interrupt_at_last_observation(&mut self) {
+        let step = self.good.step;
+        self.end_interrupted(step);
+    }
+
+    fn interrupt(&mut self, e: u64) {
+        self.end_interrupted(e);
+    }
+
+    fn finish(&mut self) -> Vec<TrajectoryOutput> {
+        self.outputs()
     }
 }

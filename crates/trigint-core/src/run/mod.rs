@@ -2,14 +2,16 @@
 //! lanes on a rayon pool). Both validate, choose the shape (compile-time sizes for small
 //! problems) and the instruction set, and run [`Bundle`]s: one run loop for both.
 //!
-//! The run loop: `bundle` (a bundle's state, the driver from event to event, checkpoints and
-//! replay), `hot` (the tight loop between events), `record` (what a careful step records).
+//! The run loop: `drive` (the [`Stepper`] trait and the driver from event to event, with
+//! checkpoints and replay), `record` (what a careful step records: the one record policy),
+//! `bundle` (the recursion's stepper), `hot` and `lanes` (its tight loops).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
 mod bundle;
+mod drive;
 mod hot;
 mod lanes;
 mod record;
@@ -23,7 +25,10 @@ use crate::output::{Form, Record, TrajectoryOutput};
 use crate::potential::Potential;
 use crate::real::{Real, Scalar};
 use crate::shape::{Fixed, Layout};
+pub(crate) use bundle::Lane;
 pub use bundle::{Bundle, Control};
+pub(crate) use drive::{run, Stepper};
+pub(crate) use record::{finish, Good, LaneBook};
 
 /// Whether the oscillatory coordinates share one frequency and one set of method numbers in
 /// every trajectory (what a [`Fixed`] shape assumes).

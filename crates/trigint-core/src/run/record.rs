@@ -14,7 +14,7 @@ use crate::real::{LaneSet, Real};
 use crate::shape::{Shape, Storage};
 
 /// The lanes' bookkeeping and the facts about the run it needs.
-pub(super) struct LaneBook<'a, L: Real> {
+pub(crate) struct LaneBook<'a, L: Real> {
     pub lanes: &'a mut [Lane],
     pub ext: &'a mut Extremes<L>,
     pub active: &'a mut LaneSet,
@@ -27,7 +27,7 @@ pub(super) struct LaneBook<'a, L: Real> {
 }
 
 /// The last observed (good) state of a bundle, as lane values.
-pub(super) struct Good<'a, L> {
+pub(crate) struct Good<'a, L> {
     pub step: u64,
     pub q: &'a [L],
     pub p: &'a [L],
@@ -131,6 +131,17 @@ impl<L: Real> LaneBook<'_, L> {
         self.end_lane(b, Status::BlowUp, good.step, message);
     }
 
+    /// The running lanes cannot be stepped past their last observed state (a stepper's own
+    /// limit, such as a Lanczos product that did not converge): they end there, as blow-ups,
+    /// their last observed state kept, with the stepper's reason.
+    #[inline(never)]
+    pub fn cannot_step(&mut self, message: &str, good: &Good<'_, L>) {
+        for b in self.active.iter() {
+            self.keep_good(b, good);
+            self.end_lane(b, Status::BlowUp, good.step, message.to_string());
+        }
+    }
+
     /// A stop request at step e (observed, state already advanced): the running lanes end
     /// there, their last observed state kept.
     #[inline(never)]
@@ -184,7 +195,7 @@ impl<L: Real> LaneBook<'_, L> {
 }
 
 /// The outputs of a finished bundle's lanes.
-pub(super) fn finish(lanes: Vec<Lane>, track: bool) -> Vec<TrajectoryOutput> {
+pub(crate) fn finish(lanes: Vec<Lane>, track: bool) -> Vec<TrajectoryOutput> {
     lanes
         .into_iter()
         .map(|lane| TrajectoryOutput {
@@ -258,12 +269,12 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     }
 
     /// A stop request at step e: the running lanes end there, their last observed state kept.
-    pub(super) fn interrupt(&mut self, e: u64) {
+    pub(super) fn end_interrupted(&mut self, e: u64) {
         let (mut lanes, good) = self.parts();
         lanes.interrupt(e, &good);
     }
 
-    pub(super) fn finish(self) -> Vec<TrajectoryOutput> {
-        finish(self.lanes, self.record.track)
+    pub(super) fn outputs(&mut self) -> Vec<TrajectoryOutput> {
+        finish(std::mem::take(&mut self.lanes), self.record.track)
     }
 }
