@@ -162,3 +162,21 @@ def test_a_named_filter_added_in_python_runs_on_the_krylov_path(monkeypatch):
     b = ti.integrate(prob, "B", q0, p0, h=0.05, n_steps=200)  # the same ψ, φ in closed form
     assert new.status == "completed"
     assert np.max(np.abs(new.q[-1] - b.q[-1])) < 1e-10 * np.max(np.abs(b.q[-1]))
+
+
+def test_energies_are_the_cores_and_equal_what_a_run_streams():
+    """ti.energies on the Krylov path comes from the core (the formula its runs stream): the same
+    bits as a run's samples, and an independent NumPy evaluation to rounding."""
+    n = 80
+    prob = chain(n, "krylov")
+    q0, p0 = initial(n)
+    sol = ti.integrate(prob, "B", q0, p0, h=0.05, n_steps=20, save_every=10)
+    e = ti.energies(prob, sol.q, sol.p)
+    for name in ("total", "oscillatory", "slow"):
+        np.testing.assert_array_equal(np.asarray(e[name]), sol.energies[name].values)
+    a = prob.stiffness
+    quadratic = 0.5 * (np.einsum("ti,ti->t", sol.p, sol.p) + np.einsum("ti,ti->t", sol.q, (a @ sol.q.T).T))
+    u = np.array([prob.potential.value(q) for q in sol.q])
+    np.testing.assert_allclose(np.asarray(e["oscillatory"]), quadratic, rtol=1e-13)
+    np.testing.assert_allclose(np.asarray(e["slow"]), u, rtol=1e-13)
+    np.testing.assert_allclose(np.asarray(e["total"]), quadratic + u, rtol=1e-13)

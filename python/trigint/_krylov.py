@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _native
+from . import _core, _native
 
 #: the most Lanczos steps for one product
 MAX_ITERATIONS = 400
@@ -81,13 +81,15 @@ def stiffness_spec(problem) -> dict:
             "data": np.ascontiguousarray(a.data, dtype=float), "tol": float(problem.krylov_tolerance)}
 
 
-def energies(a, potential, q: np.ndarray, p: np.ndarray, u: float | None = None) -> np.ndarray:
-    """(total, oscillatory, slow) at one state: ½|p|² + ½qᵀAq is H_ω when A has no zero
-    eigenvalue (the slow part ½|P₀p|² is not separated on this path), and H_slow = U(q)
-    (`u` when it is known)."""
-    quadratic = 0.5 * (p @ p + q @ (a @ q))
-    u = float(potential.value(q)) if u is None else u
-    return np.array([quadratic + u, quadratic, u])
+def energies(problem, q: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(total, oscillatory, slow) of each row of q, p (B × n), by the core's formula, the one its
+    runs stream: ½|p|² + ½qᵀAq is H_ω when A has no zero eigenvalue (the slow part ½|P₀p|² is not
+    separated on this path), and H_slow = U(q)."""
+    spec = stiffness_spec(problem)
+    potential = _native.built_potential(problem.potential, problem.dim)
+    return _core.krylov_energies(potential, spec["n"], spec["indptr"], spec["indices"], spec["data"],
+                                 np.ascontiguousarray(np.atleast_2d(q), dtype=float),
+                                 np.ascontiguousarray(np.atleast_2d(p), dtype=float))
 
 
 def run(potential_core, spec: dict, method, h, q0: np.ndarray, p0: np.ndarray, n_steps, save_every,

@@ -186,8 +186,7 @@ class Krylov:
         if method is not None:
             raise ValueError("method, h: the modified oscillatory energy needs the frequencies, which the Krylov "
                              "path does not compute; leave them out")
-        rows = np.array([_krylov.energies(problem.stiffness, problem.potential, a, b)
-                         for a, b in zip(np.atleast_2d(q), np.atleast_2d(p), strict=True)])
+        rows = _krylov.energies(problem, q, p)
         return {"total": rows[:, 0], "oscillatory": rows[:, 1], "slow": rows[:, 2], "oscillatory_1": rows[:, 1]}
 
 

@@ -4,10 +4,11 @@
 use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use trigint_core::channels::{OSCILLATORY, SLOW, TOTAL};
 use trigint_core::krylov::{
     self, Csr, Filter, KrylovCounts, MatrixFunctions, Settings, Trigonometric, Values,
     FUNCTION_COUNT,
@@ -246,6 +247,45 @@ pub fn integrate_krylov<'py>(
     info.set_item("products", products)?;
     info.set_item("tolerance", tol)?;
     Ok(r.with_info(info))
+}
+
+/// krylov_energies(potential, n, indptr, indices, data, q, p) -> array (B, 3)
+///
+/// H, H_ω and H_slow of each row of q, p (B × n) on the Krylov path, by the core's formula (the
+/// one its runs stream).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (potential, n, indptr, indices_, data, q, p))]
+pub fn krylov_energies<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    n: usize,
+    indptr: PyReadonlyArray1<i64>,
+    indices_: PyReadonlyArray1<i64>,
+    data: PyReadonlyArray1<f64>,
+    q: PyReadonlyArray2<f64>,
+    p: PyReadonlyArray2<f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let given = handle::given(potential)?;
+    let pot = given.get();
+    let a = Csr::new(
+        n,
+        indices(indptr, "row pointer")?,
+        indices(indices_, "column index")?,
+        data.as_array().to_vec(),
+    )
+    .map_err(|e| to_py(e, pot))?;
+    let (q, p): (Vec<f64>, Vec<f64>) = (
+        q.as_array().iter().copied().collect(),
+        p.as_array().iter().copied().collect(),
+    );
+    let rows = with_potential!(pot, |pt| krylov::state_energies(&a, pt, &q, &p))
+        .map_err(|e| to_py(e, pot))?;
+    let picked: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|e| vec![e[TOTAL], e[OSCILLATORY], e[SLOW]])
+        .collect();
+    PyArray2::from_vec2(py, &picked).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// tangent_krylov(potential, n, indptr, indices, data, method, tol, max_iterations, q0, p0, dq0,

@@ -282,6 +282,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kernel_config, m)?)?;
     m.add_function(wrap_pyfunction!(krylov::integrate_krylov, m)?)?;
     m.add_function(wrap_pyfunction!(krylov::tangent_krylov, m)?)?;
+    m.add_function(wrap_pyfunction!(krylov::krylov_energies, m)?)?;
     m.add(
         "KRYLOV_FUNCTIONS",
         PyTuple::new(m.py(), trigint_core::krylov::FUNCTIONS)?,

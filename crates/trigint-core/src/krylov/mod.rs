@@ -55,6 +55,37 @@ fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64;
     e
 }
 
+/// The main channels (see [`energies`]) of each state (rows of `q`, `p`, n values each): what
+/// `ti.energies` reports on the Krylov path, computed as a run computes them.
+pub fn state_energies<P: Potential>(
+    a: &Csr,
+    pot: &P,
+    q: &[f64],
+    p: &[f64],
+) -> CoreResult<Vec<[f64; FIRST_BLOCK]>> {
+    let n = a.n();
+    pot.check_dim(n)?;
+    if q.len() != p.len() || !q.len().is_multiple_of(n.max(1)) {
+        return Err(CoreError::invalid(
+            "q",
+            format!(
+                "{} positions and {} momenta: expected rows of {n} values each, as many of both",
+                q.len(),
+                p.len()
+            ),
+        ));
+    }
+    let mut ws = pot.workspace::<f64>();
+    let mut scratch = vec![0.0; n];
+    q.chunks_exact(n)
+        .zip(p.chunks_exact(n))
+        .map(|(q, p)| {
+            let u = pot.value(q, &mut ws)?;
+            Ok(energies(a, &mut scratch, q, p, u))
+        })
+        .collect()
+}
+
 /// g(φq) and the products of it the steps need: ψg, (ψ/χ)g, (cψ/χ)g.
 struct Force {
     psi: Vec<f64>,
