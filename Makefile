@@ -18,14 +18,18 @@ install: $(PY)
 	@echo "trigint: later ones seconds. cargo's progress follows."
 	$(PY) scripts/install_progress.py -e '.[test]'
 
-test: install test-rust test-python
+# The Rust tests build (debug profile) beside the package's release build: that build leaves a
+# core idle for minutes (one crate's front end at a time), which the other fills. The Python tests
+# then run on every core, a test file per worker (their module fixtures are built once).
+test:
+	$(MAKE) --no-print-directory -j2 --output-sync=line test-rust test-python
 
 # The debug profile: a minute faster to build than release here, and with overflow checks.
 test-rust:
 	cargo test -p trigint-core
 
 test-python: install
-	$(PY) -m pytest tests --doctest-modules python/trigint -p no:cacheprovider
+	$(PY) -m pytest -n auto --dist loadfile tests --doctest-modules python/trigint -p no:cacheprovider
 	$(PY) examples/fpu_energy.py $(VENV)/example-output
 
 lint: install
