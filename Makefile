@@ -22,11 +22,11 @@ install: $(PY)
 # core idle for minutes (one crate's front end at a time), which the other fills. The Python tests
 # then run on every core, a test file per worker (their module fixtures are built once).
 test:
-	$(MAKE) --no-print-directory -j2 --output-sync=line test-rust test-python
+	$(MAKE) --no-print-directory -j2 test-rust test-python
 
 # The debug profile: a minute faster to build than release here, and with overflow checks.
 test-rust:
-	cargo test -p trigint-core
+	env -u MAKEFLAGS -u MFLAGS cargo test -p trigint-core
 
 test-python: install
 	$(PY) -m pytest -n auto --dist loadfile tests --doctest-modules python/trigint -p no:cacheprovider

@@ -145,6 +145,7 @@ impl<'a, P: Potential> KrylovRun<'a, P> {
 
 impl<P: Potential> Stepper for KrylovRun<'_, P> {
     type Observation = Observation;
+    type Output = Vec<TrajectoryOutput>;
     /// Events are cheap beside a Krylov step (one sparse product and two copies), and a replay
     /// costs whole steps: short segments.
     const SEGMENT: u64 = 64;

@@ -245,6 +245,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
 
 impl<L: Real, Sh: Shape, P: Potential> Stepper for Bundle<'_, L, Sh, P> {
     type Observation = Sums<L>;
+    type Output = Vec<TrajectoryOutput>;
     const SEGMENT: u64 = 4096;
 
     fn active(&self) -> LaneSet {

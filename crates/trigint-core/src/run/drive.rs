@@ -8,7 +8,8 @@
 //! up to the first step that is not finite, so the last finite state is kept exactly.
 //!
 //! The steppers: [`Bundle`](super::Bundle) (the two-step recursion and the one-step form, every
-//! instruction-set copy and lane loop) and the Krylov step (`crate::krylov`).
+//! instruction-set copy and lane loop), the Krylov step (`crate::krylov`) and the tangent step
+//! of the recursion ([`tangent`](super::tangent)).
 //!
 //! A new kind of step implements [`Stepper`] in one file and calls [`run`]: sampling, `SaveAt`,
 //! the record policy, blow-up and its replay, Ctrl-C, progress and the status messages come
@@ -16,7 +17,7 @@
 
 use super::bundle::Control;
 use crate::error::{CoreError, CoreResult};
-use crate::output::{Record, TrajectoryOutput};
+use crate::output::Record;
 use crate::real::LaneSet;
 
 /// One kind of step, as the run loop sees it. Between calls the stepper holds the state of the
@@ -25,6 +26,8 @@ use crate::real::LaneSet;
 pub(crate) trait Stepper {
     /// What observing the state yields (the energy sums of every lane).
     type Observation;
+    /// What a finished run returns.
+    type Output;
     /// Steps between events at most: this bounds the cost of a replay.
     const SEGMENT: u64;
 
@@ -34,6 +37,10 @@ pub(crate) trait Stepper {
     fn record(&self) -> Record;
     /// The last step of lane b.
     fn n_steps(&self, b: usize) -> u64;
+    /// The stepper's own next event at or after step n (the tangent's renormalizations).
+    fn own_event(&self, _n: u64) -> u64 {
+        u64::MAX
+    }
     /// Step 0: observe (q_0, p_0), record it, and advance to step 1.
     fn start(&mut self) -> CoreResult<()>;
     fn save_checkpoint(&mut self);
@@ -55,14 +62,11 @@ pub(crate) trait Stepper {
     /// The running lanes end at step e (observed), "interrupted".
     fn interrupt(&mut self, e: u64);
     /// The outputs of every lane (taken out of the stepper).
-    fn finish(&mut self) -> Vec<TrajectoryOutput>;
+    fn finish(&mut self) -> Self::Output;
 }
 
 /// Runs every lane of `stepper` to its last step (or blow-up, or interruption).
-pub(crate) fn run<S: Stepper>(
-    stepper: &mut S,
-    control: &mut Control,
-) -> CoreResult<Vec<TrajectoryOutput>> {
+pub(crate) fn run<S: Stepper>(stepper: &mut S, control: &mut Control) -> CoreResult<S::Output> {
     match drive(stepper, control) {
         Ok(()) => {}
         // Stopped from inside the potential: end at the last observed state.
@@ -115,7 +119,7 @@ fn next_event<S: Stepper>(s: &S, n: u64, every: u64) -> u64 {
     if let Some(k) = s.record().save_every {
         e = e.min(up_to_multiple(k));
     }
-    e = e.min(up_to_multiple(every.max(1)));
+    e = e.min(up_to_multiple(every.max(1))).min(s.own_event(n));
     for b in s.active().iter() {
         e = e.min(s.n_steps(b));
     }

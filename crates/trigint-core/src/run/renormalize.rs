@@ -101,6 +101,24 @@ pub(crate) fn check_tangent(
     Ok(k)
 }
 
+impl TangentOutput {
+    /// Nothing recorded yet: a run that completes unless told otherwise.
+    pub(crate) fn empty() -> Self {
+        TangentOutput {
+            steps: Vec::new(),
+            log_growth: Vec::new(),
+            megno: Vec::new(),
+            dq: Vec::new(),
+            dp: Vec::new(),
+            q: Vec::new(),
+            p: Vec::new(),
+            steps_done: 0,
+            status: Status::Completed,
+            message: String::new(),
+        }
+    }
+}
+
 /// Benettin's bookkeeping of one run.
 pub(crate) struct Renormalizer<'m> {
     k: usize,
@@ -131,19 +149,13 @@ impl<'m> Renormalizer<'m> {
             sums: vec![0.0; k],
             logs: vec![0.0; k],
             megno: Megno::default(),
-            out: TangentOutput {
-                steps: Vec::new(),
-                log_growth: Vec::new(),
-                megno: Vec::new(),
-                dq: Vec::new(),
-                dp: Vec::new(),
-                q: Vec::new(),
-                p: Vec::new(),
-                steps_done: 0,
-                status: Status::Completed,
-                message: String::new(),
-            },
+            out: TangentOutput::empty(),
         }
+    }
+
+    /// What the run was asked for.
+    pub(crate) fn request(&self) -> &TangentRequest {
+        &self.request
     }
 
     /// Whether the vectors are re-orthonormalized at `step`.

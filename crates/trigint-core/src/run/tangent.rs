@@ -19,13 +19,14 @@
 //! for a permutation or an orthogonal basis).
 
 use super::bundle::CHECK;
+use super::drive::{run, Stepper};
 use super::renormalize::{check_tangent, Renormalizer, TangentOutput, TangentRequest};
 use super::{check_state, uniform, Control};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
 use crate::error::CoreResult;
-use crate::output::Status;
+use crate::output::Record;
 use crate::potential::{Potential, Scratch};
-use crate::real::{Real, Scalar};
+use crate::real::{LaneSet, Real, Scalar};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Fixed, Layout, Shape, Storage};
 
@@ -112,8 +113,9 @@ pub fn tangent<P: Potential>(
     };
     let rows = Rows::new(layout, method);
     with_shape!(layout, &[method], |sh, One| {
-        Run::<P, One, _>::new(pot, sh, layout, method, q0, p0, dev, rows, metric)
-            .go(request, control)
+        let mut r =
+            Run::<P, One, _>::new(pot, sh, layout, method, q0, p0, dev, rows, metric, request);
+        run(&mut r, control)
     })
 }
 
@@ -132,10 +134,17 @@ struct Run<'a, P: Potential, L: Real, Sh: Shape> {
     scratch: Scratch,
     st: State<L, Sh>,
     dev: Deviations,
-    metric: &'a [f64],
     /// φδq of one vector and G(φq_n)φδq of the vectors.
     phi_v: Vec<f64>,
     gv: Vec<f64>,
+    /// Benettin's bookkeeping and the output.
+    book: Renormalizer<'a>,
+    /// q, d, δq and δd at the start of the segment.
+    checkpoint: (Vec<L>, Vec<L>, Vec<f64>, Vec<f64>),
+    /// The ingredients of the state at the last step that passed the finite test (q_n,
+    /// d_{n+1}, d_n), so that a run that blows up still returns the state at `steps_done`.
+    good: Option<[Vec<L>; 3]>,
+    ended: bool,
 }
 
 impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
@@ -150,6 +159,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
         dev: Deviations,
         t: Rows,
         metric: &'a [f64],
+        request: &TangentRequest,
     ) -> Self {
         let n = sh.n();
         let mut st = State::new(sh);
@@ -160,6 +170,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             *a = L::splat(*b);
         }
         let k = dev.k;
+        let (t_h, st_q) = (t.h, st.q.get().to_vec());
         Run {
             pot,
             sh,
@@ -173,9 +184,12 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             scratch: Scratch::default(),
             st,
             dev,
-            metric,
             phi_v: vec![0.0; n],
             gv: vec![0.0; k * n],
+            book: Renormalizer::new(k, n, metric, t_h, request),
+            checkpoint: (st_q.clone(), st_q, vec![0.0; k * n], vec![0.0; k * n]),
+            good: None,
+            ended: false,
         }
     }
 
@@ -231,7 +245,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
     }
 
     /// (2.3) on the deviations: δd_1 = −(1 − c)δq_0 + hχ δp_0 + ½h²ψ Gφδq_0, δq_1 = δq_0 + δd_1.
-    fn start(&mut self) {
+    fn start_deviations(&mut self) {
         let (ns, n, t) = (self.sh.ns(), self.sh.n(), &self.t);
         for j in 0..self.dev.k {
             let r = j * n..(j + 1) * n;
@@ -319,189 +333,164 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             && self.dev.dq.iter().all(|x| x.is_finite())
     }
 
-    fn go(mut self, request: &TangentRequest, control: &mut Control) -> CoreResult<TangentOutput> {
+    /// The state at the last step that passed the finite test, q_n and p_n = (d_{n+1} +
+    /// d_n)/(2hχ) (an observing step's numbers), or NaN when no step passed.
+    fn last_good_state(&self) -> (Vec<f64>, Vec<f64>) {
         let n = self.sh.n();
-        let mut book = Renormalizer::new(self.dev.k, n, self.metric, self.t.h, request);
-        let mut st = std::mem::replace(&mut self.st, State::placeholder());
-        self.forces(&mut st)?;
-        recursion::two_step_start(self.sh, &self.k, &mut st);
-        self.st = st;
-        self.start();
-        let every = control.every.max(1);
-        let renormalize_every = match request.renormalize_every {
-            0 => u64::MAX,
-            r => r,
-        };
-        // The ingredients of the state at the last step that passed the finite test (q_n,
-        // d_{n+1}, d_n), so that a run that blows up still returns the state at `steps_done`.
-        let mut kept: Option<[Vec<L>; 3]> = None;
-        let mut step = 1;
-        while step <= request.n_steps {
-            // The next step with an event: a renormalization, a test, a report, the last.
-            let up = |s: u64| step.div_ceil(s).saturating_mul(s);
-            let event = up(renormalize_every)
-                .min(up(CHECK))
-                .min(up(every))
-                .min(request.n_steps);
-            self.quiet(step, event)?;
-            // Step `event` → `event` + 1, which completes (q, p) and (δq, δp) at `event`.
-            let mut st = std::mem::replace(&mut self.st, State::placeholder());
-            let advanced = self.advance(&mut st, true);
-            self.st = st;
-            advanced?;
-            step = event;
-            if !self.finite() {
-                book.blow_up(
-                    step,
-                    "the trajectory or a deviation (at this step or shortly before)",
-                );
-                break;
-            }
-            book.out.steps_done = step;
-            if request.n_steps > step {
-                let k = kept.get_or_insert_with(|| std::array::from_fn(|_| vec![L::zero(); n]));
-                k[0].copy_from_slice(&self.prev_q);
-                k[1].copy_from_slice(&self.st.d.get()[..n]);
-                k[2].copy_from_slice(&self.prev_d);
-            }
-            if book.due(step) {
-                let dev = &mut self.dev;
-                book.renormalize(
-                    step,
-                    &mut dev.prev_q,
-                    &mut dev.dp,
-                    &mut [&mut dev.dq, &mut dev.dd],
-                );
-            }
-            if step.is_multiple_of(every) && !(control.report)(step) {
-                book.interrupt(step);
-                break;
-            }
-            step += 1;
-        }
-        // The state at the last step reached (at a blow-up, the last that was tested finite):
-        // q_n as it was, and p_n = (d_{n+1} + d_n)/(2hχ), an observing step's numbers.
-        let mut out = book.out;
-        let ingredients = if out.status == Status::BlowUp {
-            kept.as_ref()
-                .map(|[q, d, prev_d]| (&q[..], &d[..], &prev_d[..]))
-        } else {
-            Some((&self.prev_q[..], &self.st.d.get()[..n], &self.prev_d[..]))
-        };
-        match ingredients {
-            Some((q, d, prev_d)) => {
+        match &self.good {
+            Some([q, d, prev_d]) => {
                 let mut p = vec![L::zero(); n];
                 recursion::momenta_after_step(self.sh, &self.k, d, prev_d, &mut p);
-                out.q = q.iter().map(|x| x.lane(0)).collect();
-                out.p = p.iter().map(|x| x.lane(0)).collect();
+                (
+                    q.iter().map(|x| x.lane(0)).collect(),
+                    p.iter().map(|x| x.lane(0)).collect(),
+                )
             }
-            // a blow-up before the first test: no finite state after the start
-            None => {
-                out.q = vec![f64::NAN; n];
-                out.p = vec![f64::NAN; n];
-            }
+            None => (vec![f64::NAN; n], vec![f64::NAN; n]),
         }
+    }
+}
+
+/// The tangent run as a stepper of the one run loop: events at the renormalizations, at least
+/// every [`CHECK`] steps (the finite test) and where the driver puts them (progress, the end).
+/// Observing step i is the step i → i + 1 that completes (q_i, p_i) and (δq_i, δp_i); a
+/// careful step then tests, renormalizes when due, and keeps the ingredients of the state.
+impl<P: Potential, L: Real, Sh: Shape> Stepper for Run<'_, P, L, Sh> {
+    /// Whether the trajectory and the deviations are finite after the observing step.
+    type Observation = bool;
+    type Output = TangentOutput;
+    const SEGMENT: u64 = CHECK;
+
+    fn active(&self) -> LaneSet {
+        if self.ended {
+            LaneSet::default()
+        } else {
+            LaneSet::first(1)
+        }
+    }
+
+    fn record(&self) -> Record {
+        Record {
+            save_every: None,
+            track: false,
+        }
+    }
+
+    fn n_steps(&self, _b: usize) -> u64 {
+        self.book.request().n_steps
+    }
+
+    fn own_event(&self, n: u64) -> u64 {
+        match self.book.request().renormalize_every {
+            0 => u64::MAX,
+            r => n.div_ceil(r).saturating_mul(r),
+        }
+    }
+
+    fn start(&mut self) -> CoreResult<()> {
+        let mut st = std::mem::replace(&mut self.st, State::placeholder());
+        let r = self.forces(&mut st);
+        if r.is_ok() {
+            recursion::two_step_start(self.sh, &self.k, &mut st);
+        }
+        self.st = st;
+        r?;
+        self.start_deviations();
+        Ok(())
+    }
+
+    fn save_checkpoint(&mut self) {
+        let (q, d, dq, dd) = &mut self.checkpoint;
+        q.copy_from_slice(self.st.q.get());
+        d.copy_from_slice(self.st.d.get());
+        dq.copy_from_slice(&self.dev.dq);
+        dd.copy_from_slice(&self.dev.dd);
+    }
+
+    fn restore_checkpoint(&mut self) -> CoreResult<()> {
+        let (q, d, dq, dd) = &self.checkpoint;
+        self.st.q.get_mut().copy_from_slice(q);
+        self.st.d.get_mut().copy_from_slice(d);
+        self.dev.dq.copy_from_slice(dq);
+        self.dev.dd.copy_from_slice(dd);
+        Ok(())
+    }
+
+    fn hot(&mut self, n: u64, e: u64) -> CoreResult<Option<u64>> {
+        self.quiet(n, e)?;
+        Ok(None)
+    }
+
+    fn observe(&mut self) -> CoreResult<bool> {
+        let mut st = std::mem::replace(&mut self.st, State::placeholder());
+        let advanced = self.advance(&mut st, true);
+        self.st = st;
+        advanced?;
+        Ok(self.finite())
+    }
+
+    fn nonfinite(&self, finite: &bool) -> LaneSet {
+        if *finite {
+            LaneSet::default()
+        } else {
+            self.active()
+        }
+    }
+
+    fn careful(&mut self, i: u64, finite: bool, _event: bool) -> CoreResult<()> {
+        if self.ended {
+            return Ok(());
+        }
+        if !finite {
+            // q_{i+1} or δq_{i+1} is not, so neither is p_i or δp_i: the state at step i.
+            self.book.blow_up(i, "the trajectory or a deviation");
+            self.ended = true;
+            return Ok(());
+        }
+        let n = self.sh.n();
+        let good = self
+            .good
+            .get_or_insert_with(|| std::array::from_fn(|_| vec![L::zero(); n]));
+        good[0].copy_from_slice(&self.prev_q);
+        good[1].copy_from_slice(&self.st.d.get()[..n]);
+        good[2].copy_from_slice(&self.prev_d);
+        self.book.out.steps_done = i;
+        if self.book.due(i) {
+            let dev = &mut self.dev;
+            self.book.renormalize(
+                i,
+                &mut dev.prev_q,
+                &mut dev.dp,
+                &mut [&mut dev.dq, &mut dev.dd],
+            );
+        }
+        if i == self.book.request().n_steps {
+            self.ended = true;
+        }
+        Ok(())
+    }
+
+    fn interrupt_at_last_observation(&mut self) {
+        let step = self.book.out.steps_done;
+        self.interrupt(step);
+    }
+
+    fn interrupt(&mut self, e: u64) {
+        self.book.interrupt(e);
+        self.ended = true;
+    }
+
+    fn finish(&mut self) -> TangentOutput {
+        let (q, p) = self.last_good_state();
+        let mut out = std::mem::replace(&mut self.book.out, TangentOutput::empty());
+        out.q = q;
+        out.p = p;
         out.dq = std::mem::take(&mut self.dev.prev_q);
         out.dp = std::mem::take(&mut self.dev.dp);
-        Ok(out)
+        out
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use crate::potential::{
-        Chain, Fpu, LinearMap, Op, Potential, Program, ProgramSpec, Scratch, Wave,
-    };
-
-    /// G(x)v against central differences of the force.
-    fn check<P: Potential>(p: &P, x: &[f64], v: &[f64]) {
-        let n = x.len();
-        let mut ws = p.workspace::<f64>();
-        let mut exact = vec![0.0; n];
-        p.force_derivative(x, v, &mut exact, &mut ws, &mut Scratch::default())
-            .unwrap();
-        let eps = 1e-5;
-        let at = |s: f64, ws: &mut P::Workspace<f64>| {
-            let y: Vec<f64> = x.iter().zip(v).map(|(a, b)| a + s * b).collect();
-            let mut f = vec![0.0; n];
-            p.force(&y, &mut f, false, ws).unwrap();
-            f
-        };
-        let (plus, minus) = (at(eps, &mut ws), at(-eps, &mut ws));
-        let mut err: f64 = 0.0;
-        let mut size: f64 = 0.0;
-        for i in 0..n {
-            err = err.max(((plus[i] - minus[i]) / (2.0 * eps) - exact[i]).abs());
-            size = size.max(exact[i].abs());
-        }
-        assert!(err <= 1e-7 * size, "error {err} against {size}");
-    }
-
-    fn point(n: usize, seed: f64) -> Vec<f64> {
-        (0..n)
-            .map(|i| 0.3 * ((i as f64 + 1.0) * seed).sin())
-            .collect()
-    }
-
-    #[test]
-    fn fpu_short_long_and_mapped() {
-        for m in [1, 3, 40] {
-            check(
-                &Fpu::new(m).unwrap(),
-                &point(2 * m, 1.3),
-                &point(2 * m, 0.7),
-            );
-        }
-        // A rotation by 45° of the first two variables as the input map.
-        let s = std::f64::consts::FRAC_1_SQRT_2;
-        let map = LinearMap::from_csr(2, 2, &[0, 2, 4], &[0, 1, 0, 1], &[s, s, -s, s]).unwrap();
-        check(&Fpu::with_map(1, map).unwrap(), &[0.4, -0.2], &[0.3, 0.9]);
-    }
-
-    #[test]
-    fn program_chain_and_wave() {
-        // U = exp(x0 − x1) + x1⁴ sin(x2) / 4
-        let spec = ProgramSpec {
-            n_inputs: 3,
-            ops: vec![
-                Op::Input(0),
-                Op::Input(1),
-                Op::Input(2),
-                Op::Sub(0, 1),
-                Op::Exp(3),
-                Op::Powi(1, 4),
-                Op::Sin(2),
-                Op::Mul(5, 6),
-                Op::Const(0.25),
-                Op::Mul(7, 8),
-                Op::Add(4, 9),
-            ],
-            output: 10,
-        };
-        let program = Program::new(&spec, None).unwrap();
-        check(&program, &[0.2, -0.4, 0.7], &[1.0, 0.5, -0.3]);
-        check(&program.interpreted(), &[0.2, -0.4, 0.7], &[1.0, 0.5, -0.3]);
-        let (ptr, cols, vals) = crate::fixtures::fpu_springs(5);
-        let map = LinearMap::from_csr(6, 10, &ptr, &cols, &vals).unwrap();
-        let chain = Chain::single(map, &Chain::monomial(0.25, 4)).unwrap();
-        check(&chain, &point(10, 0.9), &point(10, 2.1));
-        let quartic_sine = ProgramSpec {
-            n_inputs: 1,
-            ops: vec![
-                Op::Input(0),
-                Op::Powi(0, 4),
-                Op::Const(0.25),
-                Op::Mul(2, 1),
-                Op::Sin(0),
-                Op::Add(3, 4),
-            ],
-            output: 5,
-        };
-        for shape in [vec![16], vec![8, 6]] {
-            let n: usize = shape.iter().product();
-            let order: Vec<usize> = (0..n).rev().collect();
-            let wave = Wave::new(&shape, &quartic_sine, order).unwrap();
-            check(&wave, &point(n, 1.7), &point(n, 0.4));
-        }
-    }
-}
+#[path = "tangent_tests.rs"]
+mod tests;
