@@ -61,7 +61,7 @@ class LyapunovResult:
         What happened, in words (empty when completed).
     q, p : ndarray
         The trajectory's state at step `steps_done` (the state ``integrate`` reaches, bit for
-        bit); after a blow-up, the last state that was tested finite.
+        bit); after a blow-up, the last finite state (the step where ``integrate`` stops too).
     dq, dp : ndarray of shape (K, n)
         The orthonormal deviation vectors at the last step.
     second_derivatives : str
