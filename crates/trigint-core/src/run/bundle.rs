@@ -22,21 +22,13 @@ use crate::real::{LaneSet, Real};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Shape, Storage};
 
-use super::drive::{self, Stepper};
+use super::drive::{self, Control, Stepper};
 
 /// Steps between finiteness tests in the tight loop: of the positions (untracked runs; a NaN or
 /// an infinity never leaves the recursion, so a later test finds an earlier blow-up), or of a
 /// sticky sum of the total energies (tracked runs). A test costs a branch on the step's longest
 /// chain (2.3 of 12.3 ns per FPU step when done every step).
 pub(super) const CHECK: u64 = 64;
-/// How a run reports progress and learns that it should stop.
-pub struct Control<'c> {
-    /// Steps between reports (also how often a stop request is noticed).
-    pub every: u64,
-    /// Called with the step reached; returning false stops the run ("interrupted").
-    pub report: &'c mut dyn FnMut(u64) -> bool,
-}
-
 /// The state of one observed step, kept as the last good one.
 pub(super) struct Observed<L: Real, Sh: Shape> {
     pub(super) step: u64,

@@ -15,14 +15,23 @@
 //! the record policy, blow-up and its replay, Ctrl-C, progress and the status messages come
 //! from here and from `record`.
 
-use super::bundle::Control;
 use crate::error::{CoreError, CoreResult};
 use crate::output::Record;
 use crate::real::LaneSet;
 
+/// How a run reports progress and learns that it should stop.
+pub struct Control<'c> {
+    /// Steps between reports (also how often a stop request is noticed).
+    pub every: u64,
+    /// Called with the step reached; returning false stops the run ("interrupted").
+    pub report: &'c mut dyn FnMut(u64) -> bool,
+}
+
 /// One kind of step, as the run loop sees it. Between calls the stepper holds the state of the
 /// step the driver names: `start` leaves it at step 1, `hot(n, e)` takes it from n to e,
-/// `careful(i, …)` from i to i + 1.
+/// `careful(i, …)` from i to i + 1. (A stepper with `SEGMENT = 1` is never asked for a tight
+/// loop or a replay, so it may take step i − 1 → i in `observe` instead, as the Krylov tangent
+/// does: its careful step then leaves the state at i, which an interruption returns.)
 pub(crate) trait Stepper {
     /// What observing the state yields (the energy sums of every lane).
     type Observation;

@@ -25,8 +25,9 @@ use crate::output::{Form, Record, TrajectoryOutput};
 use crate::potential::Potential;
 use crate::real::{Real, Scalar};
 use crate::shape::{Fixed, Layout};
+pub use bundle::Bundle;
 pub(crate) use bundle::Lane;
-pub use bundle::{Bundle, Control};
+pub use drive::Control;
 pub(crate) use drive::{run, Stepper};
 pub(crate) use record::{finish, Good, LaneBook};
 
