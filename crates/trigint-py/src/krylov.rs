@@ -17,7 +17,7 @@ use trigint_core::{channel_count, Control, CoreError, CoreResult, Record, Trajec
 
 use crate::convert::item;
 use crate::handle;
-use crate::potential::with_potential;
+use crate::potential::{with_potential, NativePotential};
 use crate::result::{self, RunResult};
 use crate::{to_py, watch};
 
@@ -114,6 +114,23 @@ fn indices(a: PyReadonlyArray1<i64>, what: &str) -> PyResult<Vec<usize>> {
         .collect()
 }
 
+/// The stiffness matrix from its CSR arrays.
+fn csr(
+    n: usize,
+    indptr: PyReadonlyArray1<i64>,
+    indices_: PyReadonlyArray1<i64>,
+    data: PyReadonlyArray1<f64>,
+    pot: &NativePotential,
+) -> PyResult<Csr> {
+    Csr::new(
+        n,
+        indices(indptr, "row pointer")?,
+        indices(indices_, "column index")?,
+        data.as_array().to_vec(),
+    )
+    .map_err(|e| to_py(e, pot))
+}
+
 /// integrate_krylov(potential, n, indptr, indices, data, methods, tol, max_iterations, q0, p0, n_steps,
 /// save_every, track, threads=None, progress_every=64, progress=None) -> RunResult
 ///
@@ -145,13 +162,7 @@ pub fn integrate_krylov<'py>(
 ) -> PyResult<RunResult> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let a = Csr::new(
-        n,
-        indices(indptr, "row pointer")?,
-        indices(indices_, "column index")?,
-        data.as_array().to_vec(),
-    )
-    .map_err(|e| to_py(e, pot))?;
+    let a = csr(n, indptr, indices_, data, pot)?;
     let functions = methods
         .iter()
         .map(Functions::from_spec)
@@ -268,13 +279,7 @@ pub fn krylov_energies<'py>(
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let a = Csr::new(
-        n,
-        indices(indptr, "row pointer")?,
-        indices(indices_, "column index")?,
-        data.as_array().to_vec(),
-    )
-    .map_err(|e| to_py(e, pot))?;
+    let a = csr(n, indptr, indices_, data, pot)?;
     let (q, p): (Vec<f64>, Vec<f64>) = (
         q.as_array().iter().copied().collect(),
         p.as_array().iter().copied().collect(),
@@ -319,13 +324,7 @@ pub fn tangent_krylov<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let given = handle::given(potential)?;
     let pot = given.get();
-    let a = Csr::new(
-        n,
-        indices(indptr, "row pointer")?,
-        indices(indices_, "column index")?,
-        data.as_array().to_vec(),
-    )
-    .map_err(|e| to_py(e, pot))?;
+    let a = csr(n, indptr, indices_, data, pot)?;
     let functions = Functions::from_spec(&method)?;
     let h: f64 = item(&method, "h")?;
     let flat = |a: PyReadonlyArray1<f64>| a.as_array().to_vec();
