@@ -4,6 +4,8 @@ trajectory's exponents are the same bits either way."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: the seed of the default deviation vectors (see :func:`default_deviation`)
@@ -24,6 +26,14 @@ def default_deviation(n: int, count: int) -> tuple[np.ndarray, np.ndarray]:
     >>> dq.shape, bool(np.allclose(np.hstack([dq, dp]) @ np.hstack([dq, dp]).T, np.eye(2)))
     ((2, 3), True)
     """
+    dq, dp = _drawn(int(n), int(count))
+    return dq.copy(), dp.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _drawn(n: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The vectors of :func:`default_deviation`, drawn once per size: an ensemble asks for them
+    in every chunk, and each QR wakes the linear-algebra library's threads."""
     rng = np.random.default_rng(DEFAULT_DEVIATION_SEED)
     q, _ = np.linalg.qr(rng.standard_normal((2 * n, count)))
     rows = q.T

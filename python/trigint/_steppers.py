@@ -98,16 +98,20 @@ class Recursion:
 
     def tangent_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, count: int, threads) -> tuple:
         """The leading `count` exponents and the MEGNO of each trajectory of a chunk, each as
-        ``trigint.lyapunov`` computes it alone (default deviation, renormalized every 16 steps)."""
-        def one(b):
-            methods = {k: _rows_to_core(order, np.asarray(rows[k][b], dtype=float)) for k in _native.METHOD_ROWS}
-            methods["h"] = float(rows["h"][b])
-            dq0, dp0 = default_deviation(rows["q0"].shape[1], count)
-            return _recursion_tangent(potential_spec, layout_spec, order, methods, rows["q0"][b], rows["p0"][b], dq0,
-                                      dp0, int(rows["n_steps"][b]), RENORMALIZE_EVERY, int(rows["n_steps"][b]),
-                                      1 << 16, None)
-
-        return _exponents(one, rows, threads)
+        ``trigint.lyapunov`` computes it alone (default deviation, renormalized every 16 steps):
+        one call of the core, which runs the FPU chain's trajectories in bundles of lanes and
+        the others one by one, the same numbers either way."""
+        methods = {k: _rows_to_core(order, np.asarray(rows[k], dtype=float)) for k in _native.METHOD_ROWS}
+        methods["h"] = np.ascontiguousarray(rows["h"], dtype=float)
+        n = rows["q0"].shape[1]
+        dq0, dp0 = default_deviation(n, count)
+        core = _to_core(order)
+        out = _core.tangent_batch(potential_spec, layout_spec, methods, core(rows["q0"]), core(rows["p0"]),
+                                  [int(s) for s in rows["n_steps"]], core(dq0), core(dp0), _metric(order, n),
+                                  RENORMALIZE_EVERY, threads)
+        if out["interrupted"]:
+            raise KeyboardInterrupt
+        return _exponents_at_end(out["steps"], out["log_growth"], out["megno"], rows["h"])
 
     def tangent_potential(self, problem, finite_differences: bool):
         """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
@@ -199,21 +203,32 @@ def _rows_to_core(order, x):
     return np.ascontiguousarray(x if order is None else order.rows_to_core(x))
 
 
-def _recursion_tangent(potential, layout_spec: dict, order, method: dict, q0, p0, dq0, dp0, n_steps: int,
-                       renormalize_every: int, sample_every: int, every: int, callback) -> dict:
-    """``_core.tangent`` with states and deviations in the user's coordinates (`order` the map to
-    the core's, None when they are the same), whose Euclidean norm the core's metric reproduces:
-    the maps are orthogonal (a permutation, a modal basis) or the Fourier map, SᵀS = N·I."""
+def _to_core(order):
+    """States (or rows of states) from the user's coordinates to the core's."""
     def core(x):
         return np.ascontiguousarray(x if order is None else order.to_core(np.asarray(x, dtype=float)))
 
-    n = np.asarray(q0).shape[-1]
+    return core
+
+
+def _metric(order, n: int) -> np.ndarray:
+    """The core's metric that reproduces the user's Euclidean norm: the maps are orthogonal (a
+    permutation, a modal basis) or the Fourier map, SᵀS = N·I."""
     scale = 1.0
     if order is not None and order.transform is not None:
         unit = np.zeros((1, n))
         unit[0, 0] = 1.0
         scale = float(np.sum(order.to_user(unit) ** 2))
-    out = _core.tangent(potential, layout_spec, method, core(q0), core(p0), core(dq0), core(dp0), np.full(n, scale),
+    return np.full(n, scale)
+
+
+def _recursion_tangent(potential, layout_spec: dict, order, method: dict, q0, p0, dq0, dp0, n_steps: int,
+                       renormalize_every: int, sample_every: int, every: int, callback) -> dict:
+    """``_core.tangent`` with states and deviations in the user's coordinates (`order` the map to
+    the core's, None when they are the same), whose Euclidean norm the core's metric reproduces:
+    the maps are orthogonal (a permutation, a modal basis) or the Fourier map, SᵀS = N·I."""
+    core, n = _to_core(order), np.asarray(q0).shape[-1]
+    out = _core.tangent(potential, layout_spec, method, core(q0), core(p0), core(dq0), core(dp0), _metric(order, n),
                         int(n_steps), int(renormalize_every), int(sample_every), int(every), callback)
     if order is not None:
         for key in ("q", "p", "dq", "dp"):
@@ -232,18 +247,24 @@ def _exponents(one, rows: dict, threads) -> tuple:
     workers = max(1, min(count, (os.cpu_count() or 1) if threads is None else int(threads)))
     with ThreadPoolExecutor(max_workers=workers) as pool:
         outs = list(pool.map(one, range(count)))
-    exponents, megno = [], []
-    for b, out in enumerate(outs):
-        steps = np.asarray(out["steps"], dtype=np.int64)
-        growth = np.asarray(out["log_growth"])
-        if steps.size:
-            t = steps * float(rows["h"][b])
-            exponents.append((growth / t[:, None])[-1])
-            megno.append(float(out["megno"][-1]))
-        else:
-            exponents.append(np.full(growth.shape[1], np.nan))
-            megno.append(np.nan)
-    return np.array(exponents), np.array(megno)
+    k = np.asarray(outs[0]["log_growth"]).shape[1] if outs else 0
+    last = [(int(o["steps"][-1]), np.asarray(o["log_growth"])[-1], float(o["megno"][-1])) if len(o["steps"])
+            else (0, np.full(k, np.nan), np.nan) for o in outs]
+    return _exponents_at_end(np.array([s for s, _, _ in last], dtype=np.int64),
+                             np.array([g for _, g, _ in last]).reshape(len(outs), k),
+                             np.array([y for _, _, y in last]), rows["h"])
+
+
+def _exponents_at_end(steps, log_growth, megno, h) -> tuple:
+    """(exponents (B, K), MEGNO (B,)) from each trajectory's last sample: its step (0: none, then
+    NaN), Σ ln R_jj there and ⟨Y⟩ there, with step sizes `h`."""
+    steps = np.asarray(steps, dtype=np.int64)
+    t = steps * np.asarray(h, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        exponents = np.asarray(log_growth, dtype=float) / t[:, None]
+    exponents[steps == 0] = np.nan
+    megno = np.where(steps == 0, np.nan, np.asarray(megno, dtype=float))
+    return exponents, megno
 
 
 def run_chunk(stepper, potential_spec, layout_spec: dict, order, rows: dict, save_every: int | None, track: bool,

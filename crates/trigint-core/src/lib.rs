@@ -43,7 +43,7 @@ pub use potential::{
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
 pub use run::tangent::tangent;
 pub use run::Control;
-pub use run::{integrate, integrate_batch};
+pub use run::{integrate, integrate_batch, tangent_batch};
 pub use run::{TangentOutput, TangentRequest};
 pub use shape::Layout;
 

@@ -109,6 +109,44 @@ type WideLanes = Lanes<{ trigint_core::MAX_LANES }>;
 /// locals of the step loop.
 const WORKER_STACK: usize = 64 << 20;
 
+/// Runs `body` on a rayon pool of `threads` workers (None: all cores) while this thread watches
+/// for Ctrl-C, which sets `stop`. Returns the body's output and whether Ctrl-C came.
+pub(crate) fn on_pool<T: Send>(
+    py: Python<'_>,
+    pot: &NativePotential,
+    threads: Option<usize>,
+    stop: &AtomicBool,
+    body: impl Fn() -> Result<T, CoreError> + Send + Sync,
+) -> PyResult<(T, bool)> {
+    let calls_python = matches!(pot, NativePotential::Python(_));
+    // A worker that calls Python keeps one interpreter thread state for the whole batch: without
+    // it every call would create and delete one (with its frame stack, an mmap and munmap).
+    let worker = |thread: rayon::ThreadBuilder| {
+        if calls_python {
+            Python::attach(|py| py.detach(|| thread.run()))
+        } else {
+            thread.run()
+        }
+    };
+    let run = || {
+        let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK);
+        if let Some(t) = threads {
+            builder = builder.num_threads(t);
+        }
+        // Scoped: the workers are joined (and their thread states deleted) before this returns.
+        builder.build_scoped(worker, |pool: &rayon::ThreadPool| pool.install(&body))
+    };
+    let (out, interrupted) = watch::watching_ctrl_c(py, stop, run);
+    match out {
+        Ok(Ok(Ok(o))) => Ok((o, interrupted)),
+        Ok(Ok(Err(e))) => Err(to_py(e, pot)),
+        Ok(Err(e)) => Err(PyRuntimeError::new_err(format!(
+            "could not start threads: {e}"
+        ))),
+        Err(_) => Err(PyRuntimeError::new_err("the batch worker panicked")),
+    }
+}
+
 /// integrate_batch(potential, layout, methods, q0, p0, n_steps, save_every, form, track,
 /// threads=None) -> RunResult
 ///
@@ -143,47 +181,16 @@ fn integrate_batch<'py>(
         p0.as_array().iter().copied().collect(),
     );
     let stop = AtomicBool::new(false);
-    let calls_python = matches!(pot, NativePotential::Python(_));
-    // A worker that calls Python keeps one interpreter thread state for the whole batch: without
-    // it every call would create and delete one (with its frame stack, an mmap and munmap).
-    let worker = |thread: rayon::ThreadBuilder| {
-        if calls_python {
-            Python::attach(|py| py.detach(|| thread.run()))
-        } else {
-            thread.run()
+    let (out, interrupted) = on_pool(py, pot, threads, &stop, || match pot {
+        NativePotential::Python(p) if p.vectorized() => {
+            trigint_core::integrate_batch::<WideLanes, _>(
+                p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
+            )
         }
-    };
-    let run = || {
-        let body = |pool: &rayon::ThreadPool| {
-            pool.install(|| match pot {
-                NativePotential::Python(p) if p.vectorized() => {
-                    trigint_core::integrate_batch::<WideLanes, _>(
-                        p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 1024,
-                    )
-                }
-                _ => with_potential!(pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
-                    p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
-                )),
-            })
-        };
-        let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK);
-        if let Some(t) = threads {
-            builder = builder.num_threads(t);
-        }
-        // Scoped: the workers are joined (and their thread states deleted) before this returns.
-        builder.build_scoped(worker, body)
-    };
-    let (out, interrupted) = watch::watching_ctrl_c(py, &stop, run);
-    let out = match out {
-        Ok(Ok(Ok(o))) => o,
-        Ok(Ok(Err(e))) => return Err(to_py(e, pot)),
-        Ok(Err(e)) => {
-            return Err(PyRuntimeError::new_err(format!(
-                "could not start threads: {e}"
-            )))
-        }
-        Err(_) => return Err(PyRuntimeError::new_err("the batch worker panicked")),
-    };
+        _ => with_potential!(pot, |p| trigint_core::integrate_batch::<BatchLanes, _>(
+            p, lay, &methods, &q0, &p0, &n_steps, form, record, &stop, 4096,
+        )),
+    })?;
     let interrupted_by = interrupted.then(|| "KeyboardInterrupt".to_string());
     result::from_outputs(
         py,
@@ -272,6 +279,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
+    m.add_function(wrap_pyfunction!(tangent::tangent_batch, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<handle::LayoutHandle>()?;

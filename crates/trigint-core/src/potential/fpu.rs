@@ -202,13 +202,15 @@ impl Fpu {
     /// e_i = ℓ_i·v, the force's cubes d_i³ become c_i = 3d_i²e_i and are distributed as in the
     /// force (each spring's c computed once and carried to the next coordinate: no buffer, no
     /// call).
+    /// `m` is taken from the slice length (as in [`short`](Self::short): a fixed-size state
+    /// unrolls completely), for any number type (the tangent's lane loop takes it in `f64`).
     #[inline(always)]
-    fn chain_derivative(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
-        let m = self.m;
+    fn derivative<L: Real>(x: &[L], v: &[L], out: &mut [L]) {
+        let m = x.len() / 2;
         let (x0, x1) = x.split_at(m);
         let (v0, v1) = v.split_at(m);
         let (f0, f1) = out.split_at_mut(m);
-        let three = 3.0;
+        let three = L::splat(3.0);
         // Spring 0 joins the wall to the first stiff spring.
         let d = x0[0] - x1[0];
         let mut now = three * d * d * (v0[0] - v1[0]);
@@ -254,6 +256,11 @@ impl Potential for Fpu {
         }
     }
 
+    #[inline(always)]
+    fn inline_force_derivative<L: Real>(&self, x: &[L], v: &[L], out: &mut [L]) {
+        Self::derivative(x, v, out)
+    }
+
     fn dim(&self) -> usize {
         self.map.as_ref().map_or(2 * self.m, |map| map.cols)
     }
@@ -293,7 +300,7 @@ impl Potential for Fpu {
         s: &mut Scratch,
     ) -> CoreResult<()> {
         match &self.map {
-            None => self.chain_derivative(x, v, out),
+            None => Self::derivative(x, v, out),
             Some(map) => {
                 // x = M z: G_z v = Mᵀ G(Mz) (M v).
                 let n = 2 * self.m;
@@ -302,7 +309,7 @@ impl Potential for Fpu {
                 map.apply(x, Scratch::sized(&mut xs, n));
                 map.apply(v, Scratch::sized(&mut vs, n));
                 let mut gs = vec![0.0; n];
-                self.chain_derivative(&xs, &vs, &mut gs);
+                Self::derivative(&xs, &vs, &mut gs);
                 out.fill(0.0);
                 map.apply_transpose_add(&gs, out);
                 (s.a, s.b) = (xs, vs);

@@ -86,6 +86,14 @@ pub trait Potential: Sync {
         unreachable!("inline_force of a potential without one")
     }
 
+    /// G(x)v = −∇²U(x) v into `out` as arithmetic that inlines: the numbers of
+    /// [`force_derivative`](Self::force_derivative), bit for bit, for the tangent's lane loop
+    /// (`run::tangent_lanes`). Called only when [`inline_force_ready`](Self::inline_force_ready).
+    #[inline(always)]
+    fn inline_force_derivative<L: Real>(&self, _x: &[L], _v: &[L], _out: &mut [L]) {
+        unreachable!("inline_force_derivative of a potential without one")
+    }
+
     /// Number of coordinates.
     fn dim(&self) -> usize;
 

@@ -260,7 +260,7 @@ fn step_lane_group<
 /// One lane's force g(φq) into `f`, and U(q) into `u` when `with_value`: the operations of
 /// [`recursion::evaluate`], through the potential's [`inline_force`](Potential::inline_force).
 #[inline(always)]
-fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
+pub(super) fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
     sh: &Sh,
     pot: &P,
     k: &Coef<f64, Sh::S<f64>>,
@@ -286,7 +286,7 @@ fn evaluate<Sh: Shape, P: Potential, const PHI: bool>(
 /// `x[i] = v` without a bounds test (see [`at`]): every index of the lane loop is
 /// `row * width + b` with row below the rows the slice was cut to and b below the width.
 #[inline(always)]
-fn set(x: &mut [f64], i: usize, v: f64) {
+pub(super) fn set(x: &mut [f64], i: usize, v: f64) {
     debug_assert!(i < x.len());
     // SAFETY: i < x.len(), as above.
     unsafe { *x.get_unchecked_mut(i) = v }

@@ -93,6 +93,9 @@ macro_rules! with_shape {
 
 // After `with_shape!`, which it uses.
 pub mod tangent;
+mod tangent_lanes;
+mod tangent_loop;
+pub use tangent_lanes::tangent_batch;
 
 /// A state of `n` finite numbers, or the error that names it (`which`: which trajectory).
 pub(crate) fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) -> CoreResult<()> {
@@ -116,6 +119,55 @@ fn check_common<P: Potential>(pot: &P, layout: &Layout, record: &Record) -> Core
     pot.check_dim(layout.dim())?;
     if record.save_every == Some(0) {
         return Err(CoreError::invalid("save_every", "must be >= 1"));
+    }
+    Ok(())
+}
+
+/// Checks a batch: each trajectory's method numbers (two-step form or not), initial values
+/// (row-major, B × n) and step count.
+pub(crate) fn check_batch(
+    n: usize,
+    methods: &[MethodCoefficients],
+    q0: &[f64],
+    p0: &[f64],
+    n_steps: &[u64],
+    two_step: bool,
+) -> CoreResult<()> {
+    let count = methods.len();
+    if count == 0 {
+        return Err(CoreError::invalid("q0", "the batch is empty"));
+    }
+    for (t, m) in methods.iter().enumerate() {
+        m.validate(n, two_step)
+            .map_err(|e| CoreError::invalid("coefficients", format!("trajectory {t}: {e}")))?;
+    }
+    for (name, v) in [("q0", q0), ("p0", p0)] {
+        if v.len() != count * n {
+            return Err(CoreError::invalid(
+                name,
+                format!("expected {count} x {n} values, got {}", v.len()),
+            ));
+        }
+        for t in 0..count {
+            check_state(
+                name,
+                &v[t * n..(t + 1) * n],
+                n,
+                &format!("trajectory {t}: "),
+            )?;
+        }
+    }
+    if n_steps.len() != count {
+        return Err(CoreError::invalid(
+            "n_steps",
+            format!("expected {count} step counts, got {}", n_steps.len()),
+        ));
+    }
+    if let Some(t) = n_steps.iter().position(|&s| s == 0) {
+        return Err(CoreError::invalid(
+            "n_steps",
+            format!("trajectory {t}: must be >= 1"),
+        ));
     }
     Ok(())
 }
@@ -182,43 +234,16 @@ pub fn integrate_batch<L: Real, P: Potential>(
     poll: u64,
 ) -> CoreResult<Vec<TrajectoryOutput>> {
     check_common(pot, layout, &record)?;
+    check_batch(
+        layout.dim(),
+        methods,
+        q0,
+        p0,
+        n_steps,
+        form == Form::TwoStep,
+    )?;
     let n = layout.dim();
     let count = methods.len();
-    if count == 0 {
-        return Err(CoreError::invalid("q0", "the batch is empty"));
-    }
-    for (t, m) in methods.iter().enumerate() {
-        m.validate(n, form == Form::TwoStep)
-            .map_err(|e| CoreError::invalid("coefficients", format!("trajectory {t}: {e}")))?;
-    }
-    for (name, v) in [("q0", q0), ("p0", p0)] {
-        if v.len() != count * n {
-            return Err(CoreError::invalid(
-                name,
-                format!("expected {count} x {n} values, got {}", v.len()),
-            ));
-        }
-        for t in 0..count {
-            check_state(
-                name,
-                &v[t * n..(t + 1) * n],
-                n,
-                &format!("trajectory {t}: "),
-            )?;
-        }
-    }
-    if n_steps.len() != count {
-        return Err(CoreError::invalid(
-            "n_steps",
-            format!("expected {count} step counts, got {}", n_steps.len()),
-        ));
-    }
-    if let Some(t) = n_steps.iter().position(|&s| s == 0) {
-        return Err(CoreError::invalid(
-            "n_steps",
-            format!("trajectory {t}: must be >= 1"),
-        ));
-    }
     // Neighbours in step count share a bundle, so few lanes idle while others finish.
     let mut order: Vec<usize> = (0..count).collect();
     order.sort_by_key(|&t| n_steps[t]);

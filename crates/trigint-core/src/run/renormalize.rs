@@ -215,10 +215,19 @@ impl<'m> Renormalizer<'m> {
                 }
             }
         }
-        for (s, l) in self.sums.iter_mut().zip(&self.logs) {
+        let logs = std::mem::take(&mut self.logs);
+        self.grown(step, &logs);
+        self.logs = logs;
+    }
+
+    /// Adds the vectors' log growths ln R_jj at a re-orthonormalization at `step` (done by the
+    /// caller, as [`renormalize`](Self::renormalize) does it): Σ ln R_jj, the MEGNO and, when due,
+    /// a sample.
+    pub(crate) fn grown(&mut self, step: u64, logs: &[f64]) {
+        for (s, l) in self.sums.iter_mut().zip(logs) {
             *s += l;
         }
-        let y = self.megno.add(step as f64 * self.h, self.logs[0]);
+        let y = self.megno.add(step as f64 * self.h, logs[0]);
         if step.is_multiple_of(self.request.sample_every) || step == self.request.n_steps {
             self.out.steps.push(step);
             self.out.log_growth.push(self.sums.clone());
