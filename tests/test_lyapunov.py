@@ -243,6 +243,26 @@ def test_ensemble_lanes_are_lyapunov_alone_at_any_thread_count():
     assert scan.lyapunov.values[2] == alone.exponents[0]
 
 
+def test_ensemble_exponents_of_a_compiled_potential_and_of_a_lane_that_blows_up():
+    """A compiled potential runs each trajectory's tangent alone, the FPU chain in bundles of
+    lanes: either way each trajectory's exponents are those of lyapunov() on it. A lane that
+    blows up leaves NaN, its neighbours in the bundle their own numbers."""
+    problem = toda()
+    q0, p0 = np.array([0.5, 0.2, -0.1]), np.array([0.3, 0.0, 0.1])
+    ds = ti.ensemble(problem, "B", q0, p0, h=np.array([0.05, 0.07]), t_end=20.0, lyapunov=1)
+    alone = ti.lyapunov(problem, "B", q0, p0, h=0.07, t_end=20.0)
+    assert ds.lyapunov.values[1, 0] == alone.exponents[0] and np.isfinite(alone.exponents[0])
+    fpu = ti.problems.fpu(m=3, omega=30.0)
+    q, p = ti.problems.fpu_initial(m=3, omega=30.0)
+    q0 = np.tile(q, (9, 1))
+    q0[4] = 6.0
+    with pytest.warns(RuntimeWarning):
+        ds = ti.ensemble(fpu, "B", q0, np.tile(p, (9, 1)), h=0.03, t_end=30.0, lyapunov=1)
+    assert np.isnan(ds.lyapunov.values[4, 0]) and np.isnan(ds.megno.values[4])
+    alone = ti.lyapunov(fpu, "B", q, p, h=0.03, t_end=30.0)
+    assert np.all(ds.lyapunov.values[[0, 3, 5, 8], 0] == alone.exponents[0])
+
+
 def test_ensemble_exponents_on_a_client_and_in_a_store(tmp_path):
     """The exponents are computed in each chunk: an executor and a store give the bits of a run
     here, and a second call reads them back from the store."""

@@ -50,12 +50,16 @@ struct Megno {
 }
 
 impl Megno {
-    fn add(&mut self, t: f64, log_growth: f64) -> f64 {
+    fn add(&mut self, t: f64, log_growth: f64) {
         self.weighted += t * log_growth;
         let y = 2.0 * self.weighted / t;
         self.integral += y * (t - self.last_t);
         self.last_t = t;
-        self.integral / t
+    }
+
+    /// ⟨Y⟩ at the last time added (a division: only where a sample is taken).
+    fn mean(&self) -> f64 {
+        self.integral / self.last_t
     }
 }
 
@@ -227,8 +231,11 @@ impl<'m> Renormalizer<'m> {
         for (s, l) in self.sums.iter_mut().zip(logs) {
             *s += l;
         }
-        let y = self.megno.add(step as f64 * self.h, logs[0]);
-        if step.is_multiple_of(self.request.sample_every) || step == self.request.n_steps {
+        self.megno.add(step as f64 * self.h, logs[0]);
+        // (The first test spares an integer division where samples are rare: a batch's.)
+        let every = self.request.sample_every;
+        if step == self.request.n_steps || (step >= every && step.is_multiple_of(every)) {
+            let y = self.megno.mean();
             self.out.steps.push(step);
             self.out.log_growth.push(self.sums.clone());
             self.out.megno.push(y);

@@ -20,7 +20,7 @@ use super::bundle::CHECK;
 use super::drive::{run, Control, Stepper};
 use super::renormalize::{check_tangent, Renormalizer, TangentOutput, TangentRequest};
 use super::tangent::tangent;
-use super::tangent_loop::lane_loop;
+use super::tangent_loop::{lane_loop, Renorm};
 use super::{check_batch, uniform};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
 use crate::energy::at;
@@ -185,6 +185,10 @@ struct Trajectory<'t> {
     n_steps: u64,
 }
 
+/// q and d of the trajectories, δq and δd of each vector, at the start of a segment.
+type Checkpoint<L, Sh> = (<Sh as Shape>::S<L>, <Sh as Shape>::S<L>, Vec<Row2<L, Sh>>);
+type Row2<L, Sh> = (<Sh as Shape>::S<L>, <Sh as Shape>::S<L>);
+
 /// A bundle of trajectories with their deviation vectors: the [`Stepper`].
 struct LaneTangent<'a, L: Real, Sh: Shape, P: Potential> {
     sh: &'a Sh,
@@ -193,6 +197,7 @@ struct LaneTangent<'a, L: Real, Sh: Shape, P: Potential> {
     k: Coef<L, Sh::S<L>>,
     w: Weights<L, Sh::S<L>>,
     metric: Vec<L>,
+    metric_f64: &'a [f64],
     st: State<L, Sh>,
     /// Each deviation vector as a state of the recursion: δq, δd, δp_0 and, during a step,
     /// G(φq_n)φδq_n in place of the force.
@@ -205,8 +210,14 @@ struct LaneTangent<'a, L: Real, Sh: Shape, P: Potential> {
     books: Vec<Renormalizer<'a>>,
     /// ln R_jj of each lane's vectors at a re-orthonormalization (lanes × K).
     logs: Vec<f64>,
+    /// One vector: the lane loop renormalizes it itself and leaves the norms here (step, the
+    /// lanes' norms, the lanes due), for the next careful step to book.
+    norms: Vec<(u64, L, LaneSet)>,
+    /// The step the state is at, and at the checkpoint.
+    at: u64,
+    checkpoint_at: u64,
     active: LaneSet,
-    checkpoint: (Sh::S<L>, Sh::S<L>, Vec<(Sh::S<L>, Sh::S<L>)>),
+    checkpoint: Checkpoint<L, Sh>,
 }
 
 impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
@@ -252,6 +263,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             k: Coef::new(sh, &methods),
             w: Weights::new(sh, &vec![0.0; n], &methods),
             metric: b.metric.iter().map(|&x| L::splat(x)).collect(),
+            metric_f64: b.metric,
             st,
             dev,
             dq_n: (0..k).map(|_| zero()).collect(),
@@ -259,6 +271,9 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             xs: zero(),
             books,
             logs: vec![0.0; L::LANES * k],
+            norms: Vec::new(),
+            at: 0,
+            checkpoint_at: 0,
             active: LaneSet::first(count),
             checkpoint: (zero(), zero(), (0..k).map(|_| (zero(), zero())).collect()),
         }
@@ -333,13 +348,19 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             for l in due.iter() {
                 self.logs[l * kk + j] = norm.lane(l).ln();
             }
+            // δq_n and δp_n of the last vector are read by no later vector and returned by no
+            // batch (the recursion carries δq and δd): only those two are scaled.
             let dev = &mut self.dev[j];
+            let last = j + 1 == kk;
             for row in [
-                self.dq_n[j].get_mut(),
-                dev.p.get_mut(),
                 dev.q.get_mut(),
                 dev.d.get_mut(),
-            ] {
+                self.dq_n[j].get_mut(),
+                dev.p.get_mut(),
+            ]
+            .into_iter()
+            .take(if last { 2 } else { 4 })
+            {
                 for x in row.iter_mut() {
                     *x = *x / norm;
                 }
@@ -348,6 +369,37 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
         for l in due.iter() {
             self.books[l].grown(step, &self.logs[l * kk..(l + 1) * kk]);
         }
+    }
+
+    /// Whether the lane loop renormalizes (one vector, renormalized at all).
+    fn in_loop(&self) -> bool {
+        self.dev.len() == 1 && self.books[0].request().renormalize_every > 0
+    }
+
+    /// Steps from `self.at` to `e` in the lane loop; `ends`: lanes also renormalized at the
+    /// first step (their last). Returns what [`Stepper::hot`] returns.
+    fn steps(&mut self, e: u64, ends: LaneSet) -> Option<u64> {
+        let (every, ends) = if self.in_loop() {
+            (self.books[0].request().renormalize_every, ends)
+        } else {
+            (0, LaneSet::EMPTY)
+        };
+        let renorm = Renorm {
+            every,
+            ends,
+            metric: self.metric_f64,
+            norms: &mut self.norms,
+        };
+        let (sh, pot, k, w) = (self.sh, self.pot, &self.k, &self.w);
+        let (st, dev, xs) = (&mut self.st, &mut self.dev[..], &mut self.xs);
+        let (n, active) = (self.at, self.active);
+        let found = if k.phi_is_identity {
+            lane_loop::<L, Sh, P, true>(sh, pot, k, w, st, dev, xs, renorm, active, n, e)
+        } else {
+            lane_loop::<L, Sh, P, false>(sh, pot, k, w, st, dev, xs, renorm, active, n, e)
+        };
+        self.at = e;
+        found
     }
 
     /// ⟨v_i, v_j⟩ = Σ w_t (δq_i δq_j + δp_i δp_j), in the order of the one-trajectory sum.
@@ -405,6 +457,8 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
     fn own_event(&self, n: u64) -> u64 {
         match self.books[0].request().renormalize_every {
             0 => u64::MAX,
+            // (One vector: renormalized inside the lane loop.)
+            _ if self.in_loop() => u64::MAX,
             r => n.div_ceil(r).saturating_mul(r),
         }
     }
@@ -415,10 +469,13 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
         for dev in &mut self.dev {
             recursion::two_step_start(self.sh, &self.k, dev);
         }
+        self.at = 1;
         Ok(())
     }
 
     fn save_checkpoint(&mut self) {
+        self.checkpoint_at = self.at;
+        self.norms.clear();
         let (q, d, devs) = &mut self.checkpoint;
         q.get_mut().copy_from_slice(self.st.q.get());
         d.get_mut().copy_from_slice(self.st.d.get());
@@ -429,6 +486,8 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
     }
 
     fn restore_checkpoint(&mut self) -> CoreResult<()> {
+        self.at = self.checkpoint_at;
+        self.norms.clear();
         let (q, d, devs) = &self.checkpoint;
         self.st.q.get_mut().copy_from_slice(q.get());
         self.st.d.get_mut().copy_from_slice(d.get());
@@ -440,13 +499,8 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
     }
 
     fn hot(&mut self, n: u64, e: u64) -> CoreResult<Option<u64>> {
-        let (sh, pot, k, w) = (self.sh, self.pot, &self.k, &self.w);
-        let (st, dev, xs) = (&mut self.st, &mut self.dev[..], &mut self.xs);
-        Ok(if k.phi_is_identity {
-            lane_loop::<L, Sh, P, true>(sh, pot, k, w, st, dev, xs, self.active, n, e)
-        } else {
-            lane_loop::<L, Sh, P, false>(sh, pot, k, w, st, dev, xs, self.active, n, e)
-        })
+        debug_assert_eq!(n, self.at);
+        Ok(self.steps(e, LaneSet::EMPTY))
     }
 
     /// One step of the lane loop, keeping δq_n and δd_n and completing δp_n.
@@ -455,7 +509,13 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
             dq_n.get_mut().copy_from_slice(dev.q.get());
             dd_n.get_mut().copy_from_slice(dev.d.get());
         }
-        self.hot(0, 1)?;
+        // The lanes whose last step this is are renormalized there too.
+        let i = self.at;
+        let mut ends = LaneSet::EMPTY;
+        for l in self.active.iter() {
+            ends.insert_if(l, self.books[l].request().n_steps == i);
+        }
+        self.steps(i + 1, ends);
         for (dev, dd_n) in self.dev.iter_mut().zip(&self.dd_n) {
             recursion::momenta_after_step(
                 self.sh,
@@ -473,7 +533,7 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
     }
 
     fn careful(&mut self, i: u64, bad: LaneSet, _event: bool) -> CoreResult<()> {
-        let mut due = LaneSet::EMPTY;
+        let (mut due, in_loop) = (LaneSet::EMPTY, self.in_loop());
         for l in self.active.iter() {
             if bad.contains(l) {
                 // q_{i+1} or δq_{i+1} is not finite, so neither is p_i or δp_i: stop at step i.
@@ -482,9 +542,17 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
                 continue;
             }
             self.books[l].out.steps_done = i;
-            due.insert_if(l, self.books[l].due(i));
+            due.insert_if(l, !in_loop && self.books[l].due(i));
         }
-        if !due.is_empty() {
+        if in_loop {
+            // The lane loop's renormalizations since the last careful step, in order (a lane
+            // not finite at i has none before i: the driver replays a segment with one).
+            for (step, norm, due) in self.norms.drain(..) {
+                for l in (due & self.active).iter() {
+                    self.books[l].grown(step, &[norm.lane(l).ln()]);
+                }
+            }
+        } else if !due.is_empty() {
             self.renormalize(i, due);
         }
         for l in self.active.iter() {

@@ -13,6 +13,18 @@ use crate::real::{LaneSet, Real};
 use crate::recursion::{self, Observe, State};
 use crate::shape::{Shape, Storage};
 
+/// The re-orthonormalization of a single deviation vector inside the loop: at the steps that
+/// are multiples of `every` (0: never), and at the first step for the lanes `ends`, δq_{n+1}
+/// and δd_{n+1} are divided by ‖(δq_n, δp_n)‖ in the metric (the numbers of
+/// [`Renormalizer::renormalize`](super::Renormalizer) with one vector), the norms kept in
+/// `norms` with their step and lanes.
+pub(super) struct Renorm<'a, L> {
+    pub(super) every: u64,
+    pub(super) ends: LaneSet,
+    pub(super) metric: &'a [f64],
+    pub(super) norms: &'a mut Vec<(u64, L, LaneSet)>,
+}
+
 /// Steps n..e−1 of the trajectories `st` and their deviations `dev` (each a state of the
 /// recursion), `xs` the scratch row of φq_n, in the copy for this CPU's vectors. Returns a step
 /// at or before which a lane of `active` turned non-finite.
@@ -25,6 +37,7 @@ pub(super) fn lane_loop<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
     st: &mut State<L, Sh>,
     dev: &mut [State<L, Sh>],
     xs: &mut Sh::S<L>,
+    renorm: Renorm<'_, L>,
     active: LaneSet,
     n: u64,
     e: u64,
@@ -37,6 +50,7 @@ pub(super) fn lane_loop<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
         st,
         dev,
         xs,
+        renorm,
         active,
         n,
         e,
@@ -52,6 +66,7 @@ struct TangentLoop<'a, L: Real, Sh: Shape, P, const PHI: bool> {
     st: &'a mut State<L, Sh>,
     dev: &'a mut [State<L, Sh>],
     xs: &'a mut Sh::S<L>,
+    renorm: Renorm<'a, L>,
     active: LaneSet,
     n: u64,
     e: u64,
@@ -101,6 +116,7 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
         let width = L::LANES;
         let rows = sh.n() * width;
         for j in self.n..self.e {
+            let every = self.renorm.every;
             {
                 let (q, d, xs) =
                     views!(self.st.q.get_mut(), self.st.d.get_mut(), self.xs.get_mut());
@@ -113,7 +129,45 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
                     first = last;
                 }
             }
-            for dev in self.dev.iter_mut() {
+            let due = if every > 0 && j % every == 0 {
+                LaneSet::first(width)
+            } else if j == self.n {
+                self.renorm.ends
+            } else {
+                LaneSet::EMPTY
+            };
+            if !due.is_empty() {
+                let (mut mask, mut norms) = (L::zero(), L::zero());
+                for b in due.iter() {
+                    mask.set_lane(b, 1.0);
+                }
+                let dev = &mut self.dev[0];
+                let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
+                let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
+                let (mask_lanes, norm_lanes) = views!(
+                    std::slice::from_mut(&mut mask),
+                    std::slice::from_mut(&mut norms)
+                );
+                let metric = &self.renorm.metric[..sh.n()];
+                let mut first = 0;
+                while first < width {
+                    let last = (first + group).min(width);
+                    let lanes = first..last;
+                    let rows = (
+                        &mut *dq,
+                        &mut *dd,
+                        xs,
+                        &*mask_lanes,
+                        &mut *norm_lanes,
+                        metric,
+                    );
+                    renormalizing_lanes::<L, Sh, P, PHI>(sh, pot, k, w, rows, lanes);
+                    barrier(last < width);
+                    first = last;
+                }
+                self.renorm.norms.push((j, norms, due));
+            }
+            for dev in self.dev.iter_mut().filter(|_| due.is_empty()) {
                 let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
                 let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
                 let mut first = 0;
@@ -125,19 +179,28 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
                 }
             }
             if j % CHECK == 0 || j + 1 == self.e {
-                let mut bad = LaneSet::EMPTY;
-                for s in std::iter::once(&*self.st).chain(self.dev.iter()) {
-                    let q = L::as_f64s(s.q.get()).expect("lanes without padding");
-                    for (t, x) in q[..rows].iter().enumerate() {
-                        bad.insert_if(t % width, !x.is_finite());
-                    }
-                }
-                if !(bad & self.active).is_empty() {
+                if let Some(j) = self.nonfinite_at(j, rows) {
                     return Some(j);
                 }
             }
         }
         None
+    }
+}
+
+impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> TangentLoop<'_, L, Sh, P, PHI> {
+    /// `Some(j)` if a running lane's trajectory or deviation is not finite.
+    #[inline(always)]
+    fn nonfinite_at(&self, j: u64, rows: usize) -> Option<u64> {
+        let width = L::LANES;
+        let mut bad = LaneSet::EMPTY;
+        for s in std::iter::once(&*self.st).chain(self.dev.iter()) {
+            let q = L::as_f64s(s.q.get()).expect("lanes without padding");
+            for (t, x) in q[..rows].iter().enumerate() {
+                bad.insert_if(t % width, !x.is_finite());
+            }
+        }
+        (!(bad & self.active).is_empty()).then_some(j)
     }
 }
 
@@ -219,5 +282,59 @@ fn deviation_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
             set(dq, i * width + b, s.q.get()[i]);
             set(dd, i * width + b, s.d.get()[i]);
         }
+    }
+}
+
+/// The rows [`renormalizing_lanes`] reads and writes: δq, δd, φq_n, the lanes due (1.0) and
+/// their norms, and the metric.
+type RenormRows<'r> = (
+    &'r mut [f64],
+    &'r mut [f64],
+    &'r [f64],
+    &'r [f64],
+    &'r mut [f64],
+    &'r [f64],
+);
+
+/// [`deviation_lanes`] of the single vector at a re-orthonormalization: then δp_n (as
+/// [`recursion::momenta_after_step`] completes it), its norm ‖(δq_n, δp_n)‖ in the metric
+/// (the one-trajectory sum's order), and δq_{n+1}, δd_{n+1} divided by it in the lanes due.
+#[inline(always)]
+fn renormalizing_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
+    sh: &Sh,
+    pot: &P,
+    k: &Coef<L, Sh::S<L>>,
+    w: &Weights<L, Sh::S<L>>,
+    (dq, dd, xs, due, norms, metric): RenormRows<'_>,
+    lanes: std::ops::Range<usize>,
+) {
+    let (width, n) = (L::LANES, sh.n());
+    for b in lanes {
+        let kb: Coef<f64, Sh::S<f64>> = k.lane(b);
+        let mut s = State::<f64, Sh>::new(sh);
+        let mut v = Sh::S::<f64>::filled(n, 0.0);
+        for i in 0..n {
+            s.x.get_mut()[i] = at(xs, i * width + b);
+            s.q.get_mut()[i] = at(dq, i * width + b);
+            s.d.get_mut()[i] = at(dd, i * width + b);
+        }
+        let (q_n, d_n) = (s.q.clone(), s.d.clone());
+        super::tangent_lanes::scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
+        pot.inline_force_derivative(s.x.get(), v.get(), s.f.get_mut());
+        let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
+        recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
+        recursion::momenta_after_step(sh, &kb, s.d.get(), d_n.get(), s.p.get_mut());
+        let (q_n, p_n) = (q_n.get(), s.p.get());
+        let mut sum = 0.0;
+        for i in 0..n {
+            sum += metric[i] * (q_n[i] * q_n[i] + p_n[i] * p_n[i]);
+        }
+        let norm = sum.sqrt();
+        let by = if at(due, b) != 0.0 { norm } else { 1.0 };
+        for i in 0..n {
+            set(dq, i * width + b, s.q.get()[i] / by);
+            set(dd, i * width + b, s.d.get()[i] / by);
+        }
+        set(norms, b, norm);
     }
 }
