@@ -7,6 +7,7 @@
 use super::check_state;
 use crate::error::{CoreError, CoreResult};
 use crate::output::Status;
+use crate::real::{LaneSet, Real};
 
 /// What a tangent run is asked for.
 #[derive(Clone, Debug)]
@@ -255,5 +256,60 @@ impl<'m> Renormalizer<'m> {
     pub(crate) fn interrupt(&mut self, step: u64) {
         self.out.status = Status::Interrupted;
         self.out.message = format!("interrupted at step {step}");
+    }
+}
+
+/// [`Renormalizer::grown`] for one vector in many lanes at once (the bundled tangent's): Σ ln R
+/// and the MEGNO of each lane in the bundle's arithmetic, the same operations per lane, and a
+/// lane's sample taken at its last step (where a batch samples).
+pub(crate) struct LaneGrowth<L> {
+    h: L,
+    sums: L,
+    weighted: L,
+    integral: L,
+    last_t: L,
+}
+
+impl<L: Real> LaneGrowth<L> {
+    /// Lanes with step sizes `h`.
+    pub(crate) fn new(h: L) -> Self {
+        LaneGrowth {
+            h,
+            sums: L::zero(),
+            weighted: L::zero(),
+            integral: L::zero(),
+            last_t: L::zero(),
+        }
+    }
+
+    /// The log growths `logs` of the lanes `due` at `step` (the other lanes keep their numbers).
+    pub(crate) fn grown(&mut self, step: u64, logs: L, due: LaneSet) {
+        let old = [self.sums, self.weighted, self.integral, self.last_t];
+        let t = L::splat(step as f64) * self.h;
+        self.sums += logs;
+        self.weighted += t * logs;
+        let y = L::splat(2.0) * self.weighted / t;
+        self.integral += y * (t - self.last_t);
+        self.last_t = t;
+        if due != LaneSet::first(L::LANES) {
+            let new = [
+                &mut self.sums,
+                &mut self.weighted,
+                &mut self.integral,
+                &mut self.last_t,
+            ];
+            for (x, was) in new.into_iter().zip(old) {
+                for l in (0..L::LANES).filter(|&l| !due.contains(l)) {
+                    x.set_lane(l, was.lane(l));
+                }
+            }
+        }
+    }
+
+    /// Lane l's sample at `step` into `out`, as [`Renormalizer::grown`] takes it.
+    pub(crate) fn sample(&self, l: usize, step: u64, out: &mut TangentOutput) {
+        out.steps.push(step);
+        out.log_growth.push(vec![self.sums.lane(l)]);
+        out.megno.push(self.integral.lane(l) / self.last_t.lane(l));
     }
 }

@@ -18,12 +18,11 @@ use rayon::prelude::*;
 
 use super::bundle::CHECK;
 use super::drive::{run, Control, Stepper};
-use super::renormalize::{check_tangent, Renormalizer, TangentOutput, TangentRequest};
+use super::renormalize::{check_tangent, LaneGrowth, Renormalizer, TangentOutput, TangentRequest};
 use super::tangent::tangent;
-use super::tangent_loop::{lane_loop, Renorm};
+use super::tangent_loop::{lane_loop, scaled_deviation, Renorm};
 use super::{check_batch, uniform};
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
-use crate::energy::at;
 use crate::error::CoreResult;
 use crate::output::Record;
 use crate::potential::Potential;
@@ -210,6 +209,8 @@ struct LaneTangent<'a, L: Real, Sh: Shape, P: Potential> {
     books: Vec<Renormalizer<'a>>,
     /// ln R_jj of each lane's vectors at a re-orthonormalization (lanes × K).
     logs: Vec<f64>,
+    /// One vector: its Σ ln R and MEGNO per lane.
+    growth: LaneGrowth<L>,
     /// One vector: the lane loop renormalizes it itself and leaves the norms here (step, the
     /// lanes' norms, the lanes due), for the next careful step to book.
     norms: Vec<(u64, L, LaneSet)>,
@@ -245,6 +246,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             })
             .collect();
         let zero = || Sh::S::<L>::filled(n, L::zero());
+        let coef = Coef::new(sh, &methods);
+        let growth = LaneGrowth::new(coef.h);
         let books = lanes
             .iter()
             .map(|t| {
@@ -260,7 +263,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             sh,
             pot,
             ws: pot.workspace(),
-            k: Coef::new(sh, &methods),
+            k: coef,
             w: Weights::new(sh, &vec![0.0; n], &methods),
             metric: b.metric.iter().map(|&x| L::splat(x)).collect(),
             metric_f64: b.metric,
@@ -271,6 +274,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             xs: zero(),
             books,
             logs: vec![0.0; L::LANES * k],
+            growth,
             norms: Vec::new(),
             at: 0,
             checkpoint_at: 0,
@@ -414,30 +418,13 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
     }
 }
 
-/// φδq into `v` (δq itself on the slow coordinates, where φ(0) = 1, and when φ ≡ 1).
-#[inline(always)]
-pub(super) fn scaled_deviation<L: Real, Sh: Shape>(
-    sh: &Sh,
-    k: &Coef<L, Sh::S<L>>,
-    phi_identity: bool,
-    dq: &[L],
-    v: &mut [L],
-) {
-    let (ns, n) = (sh.ns(), sh.n());
-    v[..n].copy_from_slice(&dq[..n]);
-    if !phi_identity {
-        let phi = k.phi.get();
-        for i in ns..n {
-            v[i] = at(phi, sh.coef(i)) * dq[i];
-        }
-    }
-}
-
 impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
     /// The running lanes whose trajectory or a deviation is not finite after the step.
     type Observation = LaneSet;
     type Output = Vec<TangentOutput>;
-    const SEGMENT: u64 = CHECK;
+    /// Four checks of the lane loop: the events (a careful step, the checkpoint, booking the
+    /// norms) are then rare beside the steps; a replay costs at most this many steps.
+    const SEGMENT: u64 = 4 * CHECK;
 
     fn active(&self) -> LaneSet {
         self.active
@@ -548,15 +535,20 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
             // The lane loop's renormalizations since the last careful step, in order (a lane
             // not finite at i has none before i: the driver replays a segment with one).
             for (step, norm, due) in self.norms.drain(..) {
-                for l in (due & self.active).iter() {
-                    self.books[l].grown(step, &[norm.lane(l).ln()]);
+                let (due, mut logs) = (due & self.active, L::zero());
+                for l in due.iter() {
+                    logs.set_lane(l, norm.lane(l).ln());
                 }
+                self.growth.grown(step, logs, due);
             }
         } else if !due.is_empty() {
             self.renormalize(i, due);
         }
         for l in self.active.iter() {
             if i == self.books[l].request().n_steps {
+                if in_loop {
+                    self.growth.sample(l, i, &mut self.books[l].out);
+                }
                 self.active.remove(l);
             }
         }

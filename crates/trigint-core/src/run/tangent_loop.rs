@@ -274,7 +274,7 @@ fn deviation_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
             s.q.get_mut()[i] = at(dq, i * width + b);
             s.d.get_mut()[i] = at(dd, i * width + b);
         }
-        super::tangent_lanes::scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
+        scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
         pot.inline_force_derivative(s.x.get(), v.get(), s.f.get_mut());
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
         recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
@@ -319,7 +319,7 @@ fn renormalizing_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
             s.d.get_mut()[i] = at(dd, i * width + b);
         }
         let (q_n, d_n) = (s.q.clone(), s.d.clone());
-        super::tangent_lanes::scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
+        scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
         pot.inline_force_derivative(s.x.get(), v.get(), s.f.get_mut());
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
         recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
@@ -336,5 +336,24 @@ fn renormalizing_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
             set(dd, i * width + b, s.d.get()[i] / by);
         }
         set(norms, b, norm);
+    }
+}
+
+/// φδq into `v` (δq itself on the slow coordinates, where φ(0) = 1, and when φ ≡ 1).
+#[inline(always)]
+pub(super) fn scaled_deviation<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    phi_identity: bool,
+    dq: &[L],
+    v: &mut [L],
+) {
+    let (ns, n) = (sh.ns(), sh.n());
+    v[..n].copy_from_slice(&dq[..n]);
+    if !phi_identity {
+        let phi = k.phi.get();
+        for i in ns..n {
+            v[i] = at(phi, sh.coef(i)) * dq[i];
+        }
     }
 }
