@@ -296,6 +296,10 @@ type RenormRows<'r> = (
     &'r [f64],
 );
 
+/// (Written out beside [`deviation_lanes`]: a shared helper that returned the stepped state by
+/// value kept the compiler from vectorizing the loop over the lanes, 128 ns per 8-lane step
+/// against 33 in the AVX-512 copy on an Intel Xeon.)
+///
 /// [`deviation_lanes`] of the single vector at a re-orthonormalization: then δp_n (as
 /// [`recursion::momenta_after_step`] completes it), its norm ‖(δq_n, δp_n)‖ in the metric
 /// (the one-trajectory sum's order), and δq_{n+1}, δd_{n+1} divided by it in the lanes due.
