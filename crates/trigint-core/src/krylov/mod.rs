@@ -16,7 +16,7 @@ mod run;
 mod tangent;
 mod tridiagonal;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use rayon::prelude::*;
 
@@ -390,24 +390,22 @@ pub fn integrate_batch<P: Potential>(
     (0..count)
         .into_par_iter()
         .map(|t| {
-            let mut go_on = |_| !stop.load(Ordering::Relaxed);
-            let mut control = Control {
-                every: poll.max(1),
-                report: &mut go_on,
-            };
             let rows = t * n..(t + 1) * n;
-            integrate(
-                a,
-                pot,
-                functions[t],
-                hs[t],
-                lanczos,
-                &q0[rows.clone()],
-                &p0[rows],
-                n_steps[t],
-                record,
-                &mut control,
-            )
+            let (q, p) = (&q0[rows.clone()], &p0[rows]);
+            Control::polling(stop, poll, |control| {
+                integrate(
+                    a,
+                    pot,
+                    functions[t],
+                    hs[t],
+                    lanczos,
+                    q,
+                    p,
+                    n_steps[t],
+                    record,
+                    control,
+                )
+            })
             .map_err(|e| match e {
                 CoreError::InvalidArgument { name, reason } => {
                     CoreError::invalid(name, format!("trajectory {t}: {reason}"))

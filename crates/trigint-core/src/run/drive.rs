@@ -15,6 +15,8 @@
 //! the record policy, blow-up and its replay, Ctrl-C, progress and the status messages come
 //! from here and from `record`.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::error::{CoreError, CoreResult};
 use crate::output::Record;
 use crate::real::LaneSet;
@@ -25,6 +27,18 @@ pub struct Control<'c> {
     pub every: u64,
     /// Called with the step reached; returning false stops the run ("interrupted").
     pub report: &'c mut dyn FnMut(u64) -> bool,
+}
+
+impl Control<'_> {
+    /// Runs `f` with a control that reports nothing and stops once `stop` is set, polled every
+    /// `poll` steps: each trajectory or bundle of a batch, whose caller watches for Ctrl-C.
+    pub(crate) fn polling<R>(stop: &AtomicBool, poll: u64, f: impl FnOnce(&mut Control) -> R) -> R {
+        let mut go_on = |_| !stop.load(Ordering::Relaxed);
+        f(&mut Control {
+            every: poll.max(1),
+            report: &mut go_on,
+        })
+    }
 }
 
 /// One kind of step, as the run loop sees it. Between calls the stepper holds the state of the

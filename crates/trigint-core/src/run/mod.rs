@@ -6,7 +6,7 @@
 //! checkpoints and replay), `record` (what a careful step records: the one record policy),
 //! `bundle` (the recursion's stepper), `hot` and `lanes` (its tight loops).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use rayon::prelude::*;
 
@@ -260,12 +260,7 @@ pub fn integrate_batch<L: Real, P: Potential>(
                 let bundle =
                     Bundle::<L, _, P>::new(sh, pot, &layout.omega2, form, record, &m, &q, &p, &s)
                         .with_pair_forms(layout.pair_forms.as_ref());
-                let mut go_on = |_| !stop.load(Ordering::Relaxed);
-                let mut control = Control {
-                    every: poll.max(1),
-                    report: &mut go_on,
-                };
-                bundle.run(&mut control)
+                Control::polling(stop, poll, |control| bundle.run(control))
             })
             .collect()
     });

@@ -12,7 +12,7 @@
 //! step) are careful steps in the bundle's own arithmetic, which gives the same numbers per
 //! lane. Other potentials and shapes run [`tangent`] per trajectory, in parallel.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use rayon::prelude::*;
 
@@ -82,23 +82,22 @@ pub fn tangent_batch<L: Real, P: Potential>(
     (0..methods.len())
         .into_par_iter()
         .map(|t| {
-            let mut go_on = |_| !stop.load(Ordering::Relaxed);
-            let mut control = Control {
-                every: poll.max(1),
-                report: &mut go_on,
-            };
-            let mut out = tangent(
-                pot,
-                layout,
-                &methods[t],
-                &q0[t * n..(t + 1) * n],
-                &p0[t * n..(t + 1) * n],
-                dq0,
-                dp0,
-                metric,
-                &request(n_steps[t]),
-                &mut control,
-            )?;
+            let (q, p) = (&q0[t * n..(t + 1) * n], &p0[t * n..(t + 1) * n]);
+            let request = request(n_steps[t]);
+            let mut out = Control::polling(stop, poll, |control| {
+                tangent(
+                    pot,
+                    layout,
+                    &methods[t],
+                    q,
+                    p,
+                    dq0,
+                    dp0,
+                    metric,
+                    &request,
+                    control,
+                )
+            })?;
             (out.q, out.p, out.dq, out.dp) = Default::default();
             Ok(out)
         })
@@ -151,12 +150,7 @@ fn in_bundles<L: Real, Sh: Shape, P: Potential>(
                 })
                 .collect();
             let mut bundle = LaneTangent::<L, Sh, P>::new(sh, pot, &lanes, b);
-            let mut go_on = |_| !b.stop.load(Ordering::Relaxed);
-            let mut control = Control {
-                every: b.poll.max(1),
-                report: &mut go_on,
-            };
-            run(&mut bundle, &mut control)
+            Control::polling(b.stop, b.poll, |control| run(&mut bundle, control))
         })
         .collect();
     let mut out: Vec<Option<TangentOutput>> = vec![None; count];
