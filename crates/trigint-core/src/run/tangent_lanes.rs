@@ -387,6 +387,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             ends,
             metric: self.metric_f64,
             norms: &mut self.norms,
+            dq_n: self.dq_n[0].get_mut(),
+            dd_n: self.dd_n[0].get_mut(),
         };
         let (sh, pot, k, w) = (self.sh, self.pot, &self.k, &self.w);
         let (st, dev, xs) = (&mut self.st, &mut self.dev[..], &mut self.xs);

@@ -23,6 +23,9 @@ pub(super) struct Renorm<'a, L> {
     pub(super) ends: LaneSet,
     pub(super) metric: &'a [f64],
     pub(super) norms: &'a mut Vec<(u64, L, LaneSet)>,
+    /// Scratch for δq_n and δd_n at a re-orthonormalization.
+    pub(super) dq_n: &'a mut [L],
+    pub(super) dd_n: &'a mut [L],
 }
 
 /// Steps n..e−1 of the trajectories `st` and their deviations `dev` (each a state of the
@@ -137,34 +140,21 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
                 LaneSet::EMPTY
             };
             if !due.is_empty() {
-                let (mut mask, mut norms) = (L::zero(), L::zero());
-                for b in due.iter() {
-                    mask.set_lane(b, 1.0);
-                }
                 let dev = &mut self.dev[0];
-                let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
-                let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
-                let (mask_lanes, norm_lanes) = views!(
-                    std::slice::from_mut(&mut mask),
-                    std::slice::from_mut(&mut norms)
-                );
-                let metric = &self.renorm.metric[..sh.n()];
-                let mut first = 0;
-                while first < width {
-                    let last = (first + group).min(width);
-                    let lanes = first..last;
-                    let rows = (
-                        &mut *dq,
-                        &mut *dd,
-                        xs,
-                        &*mask_lanes,
-                        &mut *norm_lanes,
-                        metric,
-                    );
-                    renormalizing_lanes::<L, Sh, P, PHI>(sh, pot, k, w, rows, lanes);
-                    barrier(last < width);
-                    first = last;
+                self.renorm.dq_n.copy_from_slice(&dev.q.get()[..sh.n()]);
+                self.renorm.dd_n.copy_from_slice(&dev.d.get()[..sh.n()]);
+                {
+                    let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
+                    let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
+                    let mut first = 0;
+                    while first < width {
+                        let last = (first + group).min(width);
+                        deviation_lanes::<L, Sh, P, PHI>(sh, pot, k, w, dq, dd, xs, first..last);
+                        barrier(last < width);
+                        first = last;
+                    }
                 }
+                let norms = divided_by_norm(sh, k, dev, &self.renorm, due);
                 self.renorm.norms.push((j, norms, due));
             }
             for dev in self.dev.iter_mut().filter(|_| due.is_empty()) {
@@ -285,62 +275,41 @@ fn deviation_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
     }
 }
 
-/// The rows [`renormalizing_lanes`] reads and writes: δq, δd, φq_n, the lanes due (1.0) and
-/// their norms, and the metric.
-type RenormRows<'r> = (
-    &'r mut [f64],
-    &'r mut [f64],
-    &'r [f64],
-    &'r [f64],
-    &'r mut [f64],
-    &'r [f64],
-);
-
-/// (Written out beside [`deviation_lanes`]: a shared helper that returned the stepped state by
-/// value kept the compiler from vectorizing the loop over the lanes, 128 ns per 8-lane step
-/// against 33 in the AVX-512 copy on an Intel Xeon.)
-///
-/// [`deviation_lanes`] of the single vector at a re-orthonormalization: then δp_n (as
-/// [`recursion::momenta_after_step`] completes it), its norm ‖(δq_n, δp_n)‖ in the metric
-/// (the one-trajectory sum's order), and δq_{n+1}, δd_{n+1} divided by it in the lanes due.
+/// After the step of the single vector at a re-orthonormalization: δp_n (as
+/// [`recursion::momenta_after_step`] completes it, into `dev.p`), the norm ‖(δq_n, δp_n)‖ in
+/// the metric (the one-trajectory sum's order), and δq_{n+1}, δd_{n+1} divided by it in the
+/// lanes `due`. In the bundle's arithmetic: per lane the numbers of
+/// [`Renormalizer::renormalize`](super::Renormalizer) with one vector, and vector instructions
+/// (the same lines as a loop over lanes in `f64` compiled to scalar code, about a third of the
+/// lane loop's time on an Intel Xeon). Returns the norms.
 #[inline(always)]
-fn renormalizing_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
+fn divided_by_norm<L: Real, Sh: Shape>(
     sh: &Sh,
-    pot: &P,
     k: &Coef<L, Sh::S<L>>,
-    w: &Weights<L, Sh::S<L>>,
-    (dq, dd, xs, due, norms, metric): RenormRows<'_>,
-    lanes: std::ops::Range<usize>,
-) {
-    let (width, n) = (L::LANES, sh.n());
-    for b in lanes {
-        let kb: Coef<f64, Sh::S<f64>> = k.lane(b);
-        let mut s = State::<f64, Sh>::new(sh);
-        let mut v = Sh::S::<f64>::filled(n, 0.0);
-        for i in 0..n {
-            s.x.get_mut()[i] = at(xs, i * width + b);
-            s.q.get_mut()[i] = at(dq, i * width + b);
-            s.d.get_mut()[i] = at(dd, i * width + b);
-        }
-        let (q_n, d_n) = (s.q.clone(), s.d.clone());
-        scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
-        pot.inline_force_derivative(s.x.get(), v.get(), s.f.get_mut());
-        let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
-        recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
-        recursion::momenta_after_step(sh, &kb, s.d.get(), d_n.get(), s.p.get_mut());
-        let (q_n, p_n) = (q_n.get(), s.p.get());
-        let mut sum = 0.0;
-        for i in 0..n {
-            sum += metric[i] * (q_n[i] * q_n[i] + p_n[i] * p_n[i]);
-        }
-        let norm = sum.sqrt();
-        let by = if at(due, b) != 0.0 { norm } else { 1.0 };
-        for i in 0..n {
-            set(dq, i * width + b, s.q.get()[i] / by);
-            set(dd, i * width + b, s.d.get()[i] / by);
-        }
-        set(norms, b, norm);
+    dev: &mut State<L, Sh>,
+    renorm: &Renorm<'_, L>,
+    due: LaneSet,
+) -> L {
+    let n = sh.n();
+    recursion::momenta_after_step(sh, k, dev.d.get(), renorm.dd_n, dev.p.get_mut());
+    let (q_n, p_n) = (&renorm.dq_n[..n], &dev.p.get()[..n]);
+    let mut sum = L::zero();
+    for i in 0..n {
+        sum += L::splat(renorm.metric[i]) * (q_n[i] * q_n[i] + p_n[i] * p_n[i]);
     }
+    let norm = sum.sqrt();
+    let mut by = norm;
+    for l in 0..L::LANES {
+        if !due.contains(l) {
+            by.set_lane(l, 1.0);
+        }
+    }
+    for row in [dev.q.get_mut(), dev.d.get_mut()] {
+        for x in row[..n].iter_mut() {
+            *x = *x / by;
+        }
+    }
+    norm
 }
 
 /// φδq into `v` (δq itself on the slow coordinates, where φ(0) = 1, and when φ ≡ 1).
