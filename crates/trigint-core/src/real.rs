@@ -26,6 +26,7 @@ impl LaneSet {
     pub const EMPTY: LaneSet = LaneSet([0; WORDS]);
 
     /// Lanes 0 .. count (count ≤ [`MAX_LANES`]).
+    #[inline]
     pub fn first(count: usize) -> Self {
         assert!(count <= MAX_LANES, "a bundle has at most {MAX_LANES} lanes");
         let mut s = Self::EMPTY;

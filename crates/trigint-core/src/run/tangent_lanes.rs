@@ -343,6 +343,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
                 }
             }
             let norm = keep(self.dot(j, j).sqrt(), 1.0);
+            let inv = L::splat(1.0) / norm;
             for l in due.iter() {
                 self.logs[l * kk + j] = norm.lane(l).ln();
             }
@@ -360,7 +361,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             .take(if last { 2 } else { 4 })
             {
                 for x in row.iter_mut() {
-                    *x = *x / norm;
+                    *x = *x * inv;
                 }
             }
         }

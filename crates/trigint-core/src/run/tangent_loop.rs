@@ -278,7 +278,7 @@ fn deviation_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
 /// After the step of the single vector at a re-orthonormalization: δp_n (as
 /// [`recursion::momenta_after_step`] completes it, into `dev.p`), the norm ‖(δq_n, δp_n)‖ in
 /// the metric (the one-trajectory sum's order), and δq_{n+1}, δd_{n+1} divided by it in the
-/// lanes `due`. In the bundle's arithmetic: per lane the numbers of
+/// lanes `due` (times 1/‖·‖, as everywhere). In the bundle's arithmetic: per lane the numbers of
 /// [`Renormalizer::renormalize`](super::Renormalizer) with one vector, and vector instructions
 /// (the same lines as a loop over lanes in `f64` compiled to scalar code, about a third of the
 /// lane loop's time on an Intel Xeon). Returns the norms.
@@ -298,15 +298,15 @@ fn divided_by_norm<L: Real, Sh: Shape>(
         sum += L::splat(renorm.metric[i]) * (q_n[i] * q_n[i] + p_n[i] * p_n[i]);
     }
     let norm = sum.sqrt();
-    let mut by = norm;
+    let mut inv = L::splat(1.0) / norm;
     for l in 0..L::LANES {
         if !due.contains(l) {
-            by.set_lane(l, 1.0);
+            inv.set_lane(l, 1.0);
         }
     }
     for row in [dev.q.get_mut(), dev.d.get_mut()] {
         for x in row[..n].iter_mut() {
-            *x = *x / by;
+            *x = *x * inv;
         }
     }
     norm
