@@ -1,8 +1,9 @@
 """The semilinear wave equation on the torus: the spectral map, exact oracles on the linear
 equation, order 2 against an accurate solution of the semi-discrete system, the invariants, the
 ensemble lanes, and the errors."""
-
 from __future__ import annotations
+
+import pickle
 
 import numpy as np
 import pytest
@@ -73,7 +74,7 @@ def test_the_fourier_coordinates_are_the_normalized_coefficients(shape):
 
 def test_the_grid_map_permutes_in_the_core_as_numpy_would_and_refuses_a_bad_order():
     prob = ti.problems.wave((8, 6), rho=1.0)
-    grid, order = prob.fourier_map.grid, prob.fourier_map.order
+    grid, order = prob.fourier_grid, prob.fourier_map.order
     rng = np.random.default_rng(3)
     q, u = rng.standard_normal((3, 48)), rng.standard_normal((2, 48))
     canonical = np.empty_like(q)
@@ -81,12 +82,20 @@ def test_the_grid_map_permutes_in_the_core_as_numpy_would_and_refuses_a_bad_orde
     # the permutation is data movement only: the same bits as permuting in NumPy
     assert np.array_equal(grid.to_grid(q, order), grid.to_grid(canonical))
     assert np.array_equal(grid.from_grid(u, order), grid.from_grid(u)[:, order])
+    # the problem's map keeps the order checked once (and through a pickle)
+    ordered = prob.fourier_map.grid
+    for g in (ordered, pickle.loads(pickle.dumps(ordered))):
+        assert np.array_equal(g.to_grid(q), grid.to_grid(q, order))
+        assert np.array_equal(g.from_grid(u), grid.from_grid(u, order))
+    assert np.array_equal(pickle.loads(pickle.dumps(grid)).to_grid(canonical), grid.to_grid(canonical))
     # a non-contiguous input gives what its contiguous copy gives
     assert np.array_equal(grid.to_grid(q[:, ::-1], order), grid.to_grid(np.ascontiguousarray(q[:, ::-1]), order))
     for bad, match in [(np.zeros(48, dtype=np.int64), "repeated"), (np.arange(47), "47 entries"),
                        (np.arange(48) + 1, "out of range")]:
         with pytest.raises(ValueError, match=match):
             grid.to_grid(q, bad)
+        with pytest.raises(ValueError, match=match):
+            grid.ordered(bad)
 
 
 def test_repeated_calls_give_the_same_bits():

@@ -35,16 +35,17 @@ class FourierMap:
     (the core's order): ``to_core`` is q = Sᵀu/N, ``to_user`` is u = S q."""
 
     def __init__(self, grid, order: np.ndarray):
-        self.grid = grid
         self.order = np.ascontiguousarray(order, dtype=np.int64)
+        # the grid's plans with the order checked once (not at every call)
+        self.grid = grid.ordered(self.order)
 
     def to_core(self, x: np.ndarray) -> np.ndarray:
         rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
-        return self.grid.from_grid(rows, self.order).reshape(x.shape)
+        return self.grid.from_grid(rows).reshape(x.shape)
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
         rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
-        return self.grid.to_grid(rows, self.order).reshape(x.shape)
+        return self.grid.to_grid(rows).reshape(x.shape)
 
 
 class WavePotential(Potential):

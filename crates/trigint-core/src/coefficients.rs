@@ -15,7 +15,7 @@
 //! cos(hω̃), which for small hω̃ is amplified by 1/sin(hω̃).
 
 use crate::error::{CoreError, CoreResult};
-use crate::real::Real;
+use crate::real::{first_failing, Real};
 use crate::shape::{Shape, Storage};
 
 /// The method table, written once: each row is one per-coordinate array of a method's numbers,
@@ -97,7 +97,7 @@ impl MethodCoefficients {
                     format!("`{name}` has {} entries for {n} coordinates", v.len()),
                 ));
             }
-            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            if let Some(i) = first_failing(v, f64::is_finite) {
                 return Err(CoreError::invalid(
                     "coefficients",
                     format!("`{name}` is not finite at coordinate {i}: {}", v[i]),
@@ -105,7 +105,7 @@ impl MethodCoefficients {
             }
         }
         if two_step {
-            if let Some(i) = self.chi.iter().position(|&x| x == 0.0) {
+            if let Some(i) = first_failing(&self.chi, |x| x != 0.0) {
                 return Err(CoreError::invalid(
                     "coefficients",
                     format!(
@@ -182,6 +182,14 @@ fn row<L: Real, Sh: Shape>(
 ) -> Sh::S<L> {
     let n = sh.n();
     let mut s = Sh::S::<L>::filled(n, L::zero());
+    if L::LANES == 1 {
+        // One trajectory: its row written in place (a 2^16-point wave call's rows were a
+        // tenth of its fixed cost with a scratch row and a copy).
+        if let Some(x) = L::as_f64s_mut(s.get_mut()) {
+            f(methods[0], x);
+            return s;
+        }
+    }
     let mut one = vec![0.0; n];
     let last = methods.len() - 1;
     for b in 0..L::LANES {

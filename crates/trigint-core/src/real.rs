@@ -508,6 +508,20 @@ pub fn all_finite<L: Real>(x: &[L]) -> bool {
     bad.is_empty()
 }
 
+/// The first index of `x` where `ok` fails, for validating long rows: a pass without early
+/// exits (chunks of 64 folded with `&`, which the compiler vectorizes), and the search for the
+/// position only when that pass finds a failure.
+#[inline]
+pub fn first_failing(x: &[f64], ok: impl Fn(f64) -> bool + Copy) -> Option<usize> {
+    if x.chunks(64)
+        .all(|c| c.iter().fold(true, |all, &v| all & ok(v)))
+    {
+        None
+    } else {
+        x.iter().position(|&v| !ok(v))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,7 @@
 
 use crate::energy::PairForms;
 use crate::error::{CoreError, CoreResult};
-use crate::real::Real;
+use crate::real::{first_failing, Real};
 
 /// One number per coordinate: a fixed-size array (small problems) or a vector.
 pub trait Storage<L>: Clone + Send + Sync {
@@ -250,11 +250,7 @@ impl Layout {
                 "the blocks end at {start}, not at the last coordinate {n}"
             ));
         }
-        if let Some(i) = self
-            .omega2
-            .iter()
-            .position(|w| !(w.is_finite() && *w >= 0.0))
-        {
+        if let Some(i) = first_failing(&self.omega2, |w| w.is_finite() && w >= 0.0) {
             return bad(format!("omega^2 of coordinate {i} is {}", self.omega2[i]));
         }
         if let Some(i) = (0..self.n_slow).find(|&i| self.omega2[i] != 0.0) {
@@ -267,7 +263,9 @@ impl Layout {
                 ));
             }
         }
-        if let Some(i) = (self.n_slow..n).find(|&i| self.omega2[i] == 0.0) {
+        if let Some(i) =
+            first_failing(&self.omega2[self.n_slow..], |w| w != 0.0).map(|i| i + self.n_slow)
+        {
             return bad(format!(
                 "oscillatory coordinate {i} has frequency 0; it belongs to the slow ones"
             ));

@@ -2,7 +2,7 @@
 //! coordinate map), planned once and used by the Python layer for states on the way in and out.
 
 use std::borrow::Cow;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
@@ -13,11 +13,13 @@ use trigint_core::spectral::{Part, Spectral, SpectralWorkspace};
 
 use crate::potential::to_2d;
 
-/// FourierGrid(shape): u = S q and q = Sᵀu / N between grid values (row-major, N per row) and
-/// real Fourier coordinates (in the order of `wavevectors()`, or in a given `order`).
+/// FourierGrid(shape, order=None): u = S q and q = Sᵀu / N between grid values (row-major, N
+/// per row) and real Fourier coordinates (in the order of `wavevectors()`, or in `order`: the
+/// coordinate k of q is the grid's coordinate order[k]; checked once, here).
 #[pyclass(frozen, module = "trigint._core")]
 pub struct FourierGrid {
-    grid: Spectral,
+    grid: Arc<Spectral>,
+    order: Option<Arc<Vec<usize>>>,
     /// A workspace kept for the next call (a call takes it; calls that overlap make their own).
     kept: Mutex<Option<SpectralWorkspace>>,
 }
@@ -43,35 +45,16 @@ impl FourierGrid {
         Ok((x.shape()[0], data))
     }
 
-    /// `order` as indices, checked to be a permutation of the coordinates.
+    /// The order of a call: `order` checked, or the grid's own.
     fn order(
         &self,
         order: Option<PyReadonlyArray1<i64>>,
         what: &str,
-    ) -> PyResult<Option<Vec<usize>>> {
-        let Some(order) = order else {
-            return Ok(None);
-        };
-        let n = self.grid.points();
-        let mut seen = vec![false; n];
-        let mut out = Vec::with_capacity(n);
-        for &k in order.as_array().iter() {
-            let fits = usize::try_from(k).ok().filter(|&k| k < n && !seen[k]);
-            let Some(k) = fits else {
-                return Err(PyValueError::new_err(format!(
-                    "{what}: order must be a permutation of 0..{n}; {k} is out of range or repeated"
-                )));
-            };
-            seen[k] = true;
-            out.push(k);
+    ) -> PyResult<Option<Arc<Vec<usize>>>> {
+        match order {
+            Some(order) => Ok(Some(Arc::new(checked_order(&self.grid, &order, what)?))),
+            None => Ok(self.order.clone()),
         }
-        if out.len() != n {
-            return Err(PyValueError::new_err(format!(
-                "{what}: order has {} entries for {n} coordinates",
-                out.len()
-            )));
-        }
-        Ok(Some(out))
     }
 
     fn workspace(&self) -> SpectralWorkspace {
@@ -89,10 +72,26 @@ impl FourierGrid {
 #[pymethods]
 impl FourierGrid {
     #[new]
-    fn new(shape: Vec<usize>) -> PyResult<Self> {
+    #[pyo3(signature = (shape, order=None))]
+    fn new(shape: Vec<usize>, order: Option<PyReadonlyArray1<i64>>) -> PyResult<Self> {
         let grid = Spectral::new(&shape).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let order = match order {
+            Some(o) => Some(Arc::new(checked_order(&grid, &o, "FourierGrid")?)),
+            None => None,
+        };
         Ok(FourierGrid {
-            grid,
+            grid: Arc::new(grid),
+            order,
+            kept: Mutex::new(None),
+        })
+    }
+
+    /// ordered(order) -> this grid (its plans shared) with its coordinates in `order`, checked
+    /// once, so that `to_grid` and `from_grid` need no `order` per call.
+    fn ordered(&self, order: PyReadonlyArray1<i64>) -> PyResult<FourierGrid> {
+        Ok(FourierGrid {
+            grid: Arc::clone(&self.grid),
+            order: Some(Arc::new(checked_order(&self.grid, &order, "ordered")?)),
             kept: Mutex::new(None),
         })
     }
@@ -180,7 +179,7 @@ impl FourierGrid {
                 match (&order, &mut canonical) {
                     (Some(order), Some(c)) => {
                         self.grid.transpose(&mut row, c, 1.0 / n as f64, &mut ws);
-                        for (x, &k) in q.iter_mut().zip(order) {
+                        for (x, &k) in q.iter_mut().zip(order.iter()) {
                             *x = c[k];
                         }
                     }
@@ -192,7 +191,49 @@ impl FourierGrid {
         to_2d(py, out, m, n)
     }
 
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Vec<usize>,))> {
-        Ok((py.get_type::<FourierGrid>().into_any(), (self.shape(),)))
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, PyAny>,
+        (Vec<usize>, Option<Bound<'py, PyArray1<i64>>>),
+    )> {
+        let order = self.order.as_ref().map(|o| {
+            let o: Vec<i64> = o.iter().map(|&k| k as i64).collect();
+            PyArray1::from_vec(py, o)
+        });
+        Ok((
+            py.get_type::<FourierGrid>().into_any(),
+            (self.shape(), order),
+        ))
     }
+}
+
+/// `order` as indices, checked to be a permutation of the grid's coordinates.
+fn checked_order(
+    grid: &Spectral,
+    order: &PyReadonlyArray1<i64>,
+    what: &str,
+) -> PyResult<Vec<usize>> {
+    let n = grid.points();
+    let mut seen = vec![false; n];
+    let mut out = Vec::with_capacity(n);
+    for &k in order.as_array().iter() {
+        let fits = usize::try_from(k).ok().filter(|&k| k < n && !seen[k]);
+        let Some(k) = fits else {
+            return Err(PyValueError::new_err(format!(
+                "{what}: order must be a permutation of 0..{n}; {k} is out of range or repeated"
+            )));
+        };
+        seen[k] = true;
+        out.push(k);
+    }
+    if out.len() != n {
+        return Err(PyValueError::new_err(format!(
+            "{what}: order has {} entries for {n} coordinates",
+            out.len()
+        )));
+    }
+    Ok(out)
 }
