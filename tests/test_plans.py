@@ -62,14 +62,17 @@ def test_measured_cached_and_estimated_plans_give_the_same_bits(tmp_path):
     assert_same(estimated, measured)
     cfg = info(TRIGINT_CACHE_DIR=str(cache))
     assert cfg["plan_mode"] == "measure"
-    (path,) = cache.iterdir()
-    assert str(path) == cfg["plan_cache"]
-    lines = path.read_text().splitlines()
-    assert lines[0].startswith("# trigint kernel plans")
-    if len(cfg["copies"]) > 1:  # one copy only (not x86-64): nothing to measure
-        # the one-trajectory loop, the lane loop and the wave's loop each got a plan
-        assert len(lines) >= 4, lines
-        assert {row["chosen"] for row in cfg["plans"]} <= set(cfg["copies"])
+    # the planner chooses among the VEX-encoded copies (see isa::run): with AVX-512 and AVX2
+    # there is a choice for the FPU's loops; with one of them (or none) the widest just runs
+    vex = [c for c in cfg["copies"] if c != "baseline"]
+    if len(vex) > 1:
+        (path,) = cache.iterdir()
+        assert str(path) == cfg["plan_cache"]
+        lines = path.read_text().splitlines()
+        assert lines[0].startswith("# trigint kernel plans")
+        # the one-trajectory loop and the lane loop each got a plan, never the baseline copy
+        assert len(lines) >= 3, lines
+        assert {row["chosen"] for row in cfg["plans"]} <= set(vex)
     cached, err = run(tmp_path, "cached", TRIGINT_CACHE_DIR=str(cache))
     assert err == ""
     assert_same(estimated, cached)
@@ -80,8 +83,8 @@ def test_a_damaged_or_unwritable_cache_is_passed_over_with_a_one_line_note(tmp_p
     cache = tmp_path / "cache"
     reference, _ = run(tmp_path, "reference", TRIGINT_PLAN="estimate")
     cfg = info(TRIGINT_CACHE_DIR=str(cache))
-    if len(cfg["copies"]) == 1:
-        return  # nothing is measured, so no cache is read or written
+    if len([c for c in cfg["copies"] if c != "baseline"]) <= 1:
+        return  # no choice, nothing is measured, so no cache is read or written
     cache.mkdir()
     path = cache / os.path.basename(cfg["plan_cache"])
     path.write_bytes(b"\x00\xffnot a plan file\n")
