@@ -32,8 +32,9 @@ kr = ti.integrate(chain, "D", np.sin(np.linspace(0, 3, n)), np.zeros(n), h=0.05,
 ly = ti.lyapunov(prob, "C", q0, p0, h=h, n_steps=3000, n_exponents=2)
 ly_ex = ti.lyapunov(expr, "B", q0, p0, h=h, n_steps=2000)
 ly_ens = ti.ensemble(prob, "B", Q0[:9], P0[:9], h=h, n_steps=2000, lyapunov=1, threads=1)
-np.savez(sys.argv[1], ly=ly.exponents, ly_megno=ly.megno.values, ly_hist=ly.history.values, ly_ex=ly_ex.exponents,
-         ly_ens=ly_ens.lyapunov.values, ly_ens_megno=ly_ens.megno.values, one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
+np.savez(sys.argv[1], ly=ly.exponents, ly_megno=ly.megno.values, ly_hist=ly.history.values,
+         ly_ex=ly_ex.exponents, ly_ens=ly_ens.lyapunov.values, ly_ens_megno=ly_ens.megno.values,
+         one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
          one_e=one_e.q, one_e_dev=np.array(list(one_e.max_deviation.values())),
          one_m_dev=np.array(list(one_m.max_deviation.values())),
          ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q)

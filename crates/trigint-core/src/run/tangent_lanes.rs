@@ -361,7 +361,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> LaneTangent<'a, L, Sh, P> {
             .take(if last { 2 } else { 4 })
             {
                 for x in row.iter_mut() {
-                    *x = *x * inv;
+                    *x *= inv;
                 }
             }
         }

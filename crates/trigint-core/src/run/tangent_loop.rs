@@ -306,7 +306,7 @@ fn divided_by_norm<L: Real, Sh: Shape>(
     }
     for row in [dev.q.get_mut(), dev.d.get_mut()] {
         for x in row[..n].iter_mut() {
-            *x = *x * inv;
+            *x *= inv;
         }
     }
     norm
