@@ -109,10 +109,11 @@ fn copies<K: Kernel>() -> ([Isa; 3], usize) {
 pub fn run<K: Kernel>(k: &mut K) -> K::Output {
     let (all, n) = copies::<K>();
     // Where there is a VEX-encoded copy (AVX2, AVX-512), the planner chooses among those alone.
-    // The baseline copy's legacy-SSE instructions pay for upper register halves left dirty by
-    // AVX code that ran before in the process (glibc's AVX-512 memmove, NumPy's kernels, ours),
-    // at random: the one-trajectory tangent loop ran at 29-31 or at 53-60 ns per FPU step
-    // between processes on an Intel Xeon (model 207), the same instructions.
+    // The baseline copy's legacy-SSE instructions ran the one-trajectory tangent loop at 29-31
+    // or at 53-60 ns per FPU step between processes on an Intel Xeon (model 207), the same
+    // instructions; likely Intel's SSE/AVX transition cost, paid when AVX code that ran before
+    // in the process (glibc's AVX-512 memmove, NumPy's kernels, ours) left upper register
+    // halves dirty. The VEX-encoded copies do not pay it.
     let candidates = &all[..n.saturating_sub(1).max(1)];
     if K::PLANNED && candidates.len() > 1 && plan::mode() == Mode::Measure {
         if let Some((first, end)) = k.steps().filter(|(n, e)| e > n) {

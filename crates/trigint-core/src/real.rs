@@ -527,6 +527,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn first_failing_finds_the_first_bad_entry_past_the_chunks() {
+        let mut x = vec![1.0; 200];
+        assert_eq!(first_failing(&x, f64::is_finite), None);
+        x[130] = f64::NAN;
+        x[199] = f64::INFINITY;
+        assert_eq!(first_failing(&x, f64::is_finite), Some(130));
+        x[3] = 0.0;
+        assert_eq!(first_failing(&x, |v| v != 0.0), Some(3));
+        assert_eq!(first_failing(&x[..3], |v| v != 0.0), None);
+    }
+
+    #[test]
     fn lanes_give_the_scalar_bits() {
         let a = Lanes([1.5, -2.0, 3.25, 1e-300, 0.1, 7.0, -0.0, 2.5]);
         let b = Lanes([0.3, 4.0, -1.0, 1e300, 0.7, 3.0, 1.0, 1.0 / 3.0]);

@@ -140,24 +140,12 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
                 LaneSet::EMPTY
             };
             if !due.is_empty() {
-                let dev = &mut self.dev[0];
+                // the single vector's δq_n and δd_n, for its norm after the step
+                let dev = &self.dev[0];
                 self.renorm.dq_n.copy_from_slice(&dev.q.get()[..sh.n()]);
                 self.renorm.dd_n.copy_from_slice(&dev.d.get()[..sh.n()]);
-                {
-                    let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
-                    let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
-                    let mut first = 0;
-                    while first < width {
-                        let last = (first + group).min(width);
-                        deviation_lanes::<L, Sh, P, PHI>(sh, pot, k, w, dq, dd, xs, first..last);
-                        barrier(last < width);
-                        first = last;
-                    }
-                }
-                let norms = divided_by_norm(sh, k, dev, &self.renorm, due);
-                self.renorm.norms.push((j, norms, due));
             }
-            for dev in self.dev.iter_mut().filter(|_| due.is_empty()) {
+            for dev in self.dev.iter_mut() {
                 let (dq, dd, xs) = views!(dev.q.get_mut(), dev.d.get_mut(), self.xs.get_mut());
                 let (dq, dd, xs) = (&mut dq[..rows], &mut dd[..rows], &xs[..rows]);
                 let mut first = 0;
@@ -167,6 +155,10 @@ impl<L: Real, Sh: Shape, P: Potential, const PHI: bool> crate::isa::Kernel
                     barrier(last < width);
                     first = last;
                 }
+            }
+            if !due.is_empty() {
+                let norms = divided_by_norm(sh, k, &mut self.dev[0], &self.renorm, due);
+                self.renorm.norms.push((j, norms, due));
             }
             if j % CHECK == 0 || j + 1 == self.e {
                 if let Some(j) = self.nonfinite_at(j, rows) {
