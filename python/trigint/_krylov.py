@@ -82,9 +82,9 @@ def stiffness_spec(problem) -> dict:
 
 
 def energies(problem, q: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(total, oscillatory, slow) of each row of q, p (B × n), by the core's formula, the one its
-    runs stream: ½|p|² + ½qᵀAq is H_ω when A has no zero eigenvalue (the slow part ½|P₀p|² is not
-    separated on this path), and H_slow = U(q)."""
+    """The channels (``channel_names(1)``) of each row of q, p (B × n), by the core's formula, the
+    one its runs stream: ½|p|² + ½qᵀAq is H_ω when A has no zero eigenvalue (the slow part ½|P₀p|²
+    is not separated on this path), H_slow = U(q), NaN for the modified energy."""
     spec = stiffness_spec(problem)
     potential = _native.built_potential(problem.potential, problem.dim)
     return _core.krylov_energies(potential, spec["n"], spec["indptr"], spec["indices"], spec["data"],

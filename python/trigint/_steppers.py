@@ -79,9 +79,23 @@ class Recursion:
         """What identifies the stiffness in a store's fingerprint."""
         return {} if problem.stiffness is None else {"stiffness": problem.stiffness}
 
-    def whole_state_energies(self, problem, q, p, method, h):
-        """None: the energies come from the core's channels at the frequencies."""
-        return None
+    def state_energies(self, problem, q, p, method, h) -> dict:
+        """The energy channels of each row of q, p (m × n, user coordinates), by name, as a run
+        observes its initial state (``_core.state_energies``); the modified energy of `method`
+        at step size `h` only when they are given (NaN where its σ is undefined)."""
+        lay = _native.core_layout(problem)
+        potential = _native.problem_potential(problem, lay)
+        modified = None
+        if method is not None:
+            co = method.coefficients(h, problem.omega)
+            fast = problem.omega > 0
+            modified = tuple(lay.rows_to_core(np.where(fast, getattr(co, k), 0.0).astype(float))
+                             for k in ("modified_p", "modified_q"))
+        rows = _core.state_energies(potential, lay.spec, np.ascontiguousarray(lay.to_core(q), dtype=float),
+                                    np.ascontiguousarray(lay.to_core(p), dtype=float), modified)
+        names = _native.channel_names(problem.n_blocks, problem.n_axes)
+        return {name: rows[:, k] for k, name in enumerate(names)
+                if method is not None or name != "modified_oscillatory"}
 
     def tangent(self, problem, method, co, h: float, potential, q0, p0, dq0, dp0, n_steps: int,
                 renormalize_every: int, sample_every: int, every: int, callback) -> dict:
@@ -185,13 +199,15 @@ class Krylov:
         spec = problem.potential.describe(problem.dim)
         return _core.Potential({**spec, "finite_differences": True}) if finite_differences else None
 
-    def whole_state_energies(self, problem, q, p, method, h) -> dict:
-        """H, H_ω and H_slow of each row of q, p (no modified energy: it needs the frequencies)."""
+    def state_energies(self, problem, q, p, method, h) -> dict:
+        """The channels of each row of q, p as the Krylov path's runs stream them (no modified
+        energy: it needs the frequencies)."""
         if method is not None:
             raise ValueError("method, h: the modified oscillatory energy needs the frequencies, which the Krylov "
                              "path does not compute; leave them out")
         rows = _krylov.energies(problem, q, p)
-        return {"total": rows[:, 0], "oscillatory": rows[:, 1], "slow": rows[:, 2], "oscillatory_1": rows[:, 1]}
+        return {name: rows[:, k] for k, name in enumerate(_native.channel_names(1))
+                if name != "modified_oscillatory"}
 
 
 RECURSION = Recursion()

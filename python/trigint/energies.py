@@ -1,6 +1,5 @@
-"""The energies of paper §2.1 and §3 as quadratic forms on arrays (NumPy).
-
-Shared by :func:`trigint.energies` and the tests; the core streams the same forms.
+"""The energies of paper §2.1 and §3 at given states, computed by the core as its runs observe
+them (the channel table, the observing sweep's sums): :func:`trigint.energies`.
 """
 
 from __future__ import annotations
@@ -9,7 +8,6 @@ import numpy as np
 import xarray as xr
 
 from . import _native
-from .coefficients import Coefficients
 from .methods import Method
 from .problem import OscillatoryProblem
 
@@ -32,25 +30,6 @@ def energy_names(n_blocks: int, n_axes: int = 0) -> list[str]:
     ['total', 'oscillatory', 'slow', 'modified_oscillatory', 'oscillatory_1', 'oscillatory_2']
     """
     return _native.channel_names(n_blocks, n_axes)
-
-
-def layout(problem: OscillatoryProblem, coefficients: Coefficients | None) -> dict:
-    """Per-coordinate weights of the quadratic forms, as the core consumes them.
-
-    I_j = Σ_{i in block j} ½(p_i² + ω_i² q_i²); the modified oscillatory energy is
-    Σ_i ½(a_i p_i² + b_i q_i²) with a = σ (χ/sinc(hω̃))², b = σ ω̃² (paper (3.4) and
-    §3.2); for trigonometric methods a = σ, b = σ ω².
-    """
-    omega = problem.omega
-    fast = omega > 0
-    if coefficients is None:
-        modified_p = np.full(omega.size, np.nan)
-        modified_q = np.full(omega.size, np.nan)
-    else:
-        modified_p = np.where(fast, coefficients.modified_p, 0.0)
-        modified_q = np.where(fast, coefficients.modified_q, 0.0)
-    return dict(omega2=omega**2, modified_p=modified_p, modified_q=modified_q,
-                block=problem.blocks, n_blocks=problem.n_blocks)
 
 
 def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = None,
@@ -97,38 +76,11 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         )
     if (method is None) != (h is None):
         raise ValueError("method, h: give both (for the modified oscillatory energy) or neither")
-    data = problem.stepper.whole_state_energies(problem, q, p, method, h)
-    if data is not None:  # computed by the stepper (no frequencies on the Krylov path)
-        if q.ndim == 1:
-            return xr.Dataset({k: ((), v[0]) for k, v in data.items()})
-        return xr.Dataset({k: ("sample", v) for k, v in data.items()})
     if method is not None:
         from ._method_names import resolve_method
 
         method = resolve_method(method)
-    coefficients = method.coefficients(h, problem.omega) if method is not None else None
-    w = layout(problem, coefficients)
-    q_user = np.atleast_2d(q)
-    q2, p2 = np.atleast_2d(q), np.atleast_2d(p)
-    if problem.coordinate_map is not None:
-        q2, p2 = problem.coordinate_map.to_core(q2), problem.coordinate_map.to_core(p2)
-        q_user = q2
-    if problem.basis is not None:
-        # the quadratic forms in the modal coordinates x = Qᵀq: |P_j q|² = |x_j|²
-        q2, p2 = q2 @ problem.basis, p2 @ problem.basis
-    per_coordinate = 0.5 * (p2**2 + w["omega2"] * q2**2)
-    order = np.argsort(w["block"], kind="stable")
-    starts = np.searchsorted(w["block"][order], np.arange(w["n_blocks"] + 1))
-    sums = np.add.reduceat(per_coordinate[:, order], starts, axis=1) if per_coordinate.shape[1] else per_coordinate
-    present = np.bincount(w["block"], minlength=w["n_blocks"] + 1) > 0
-    blocks = [sums[:, j] if present[j] else np.zeros(q2.shape[0]) for j in range(w["n_blocks"] + 1)]
-    oscillatory = np.sum(blocks[1:], axis=0) if w["n_blocks"] else np.zeros(q2.shape[0])
-    slow = blocks[0] + problem.potential.value(q_user)
-    data = dict(total=oscillatory + slow, oscillatory=oscillatory, slow=slow)
-    if coefficients is not None:
-        data["modified_oscillatory"] = (0.5 * (w["modified_p"] * p2**2 + w["modified_q"] * q2**2)).sum(axis=1)
-    for j in range(1, w["n_blocks"] + 1):
-        data[f"oscillatory_{j}"] = blocks[j]
+    data = problem.stepper.state_energies(problem, np.atleast_2d(q), np.atleast_2d(p), method, h)
     if q.ndim == 1:
         return xr.Dataset({k: ((), v[0]) for k, v in data.items()})
     return xr.Dataset({k: ("sample", v) for k, v in data.items()})

@@ -7,7 +7,8 @@ use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
 use crate::sum::Sum8;
 
-pub use crate::channels::{FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
+pub use crate::channels::{sum, FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
+use crate::channels::{Value, CHANNELS};
 
 pub use crate::sum::tree;
 
@@ -164,44 +165,38 @@ impl PairForms {
     }
 }
 
-/// Sums of the forms over one state, as a sweep accumulates them.
+/// Sums of the per-coordinate forms over one state, as a sweep accumulates them, indexed by
+/// [`crate::channels::sum`].
 #[derive(Clone, Copy)]
-pub struct Sums<L> {
-    /// Σ p² over the slow coordinates
-    pub kinetic: L,
-    /// Σ (p² + ω²q²) over the oscillatory coordinates
-    pub oscillatory: L,
-    /// Σ (a p² + b q²), when H* is not H_ω
-    pub modified: L,
-}
+pub struct Sums<L>(pub [L; sum::COUNT]);
 
 impl<L: Real> Sums<L> {
     #[inline(always)]
     pub fn zero() -> Self {
-        Sums {
-            kinetic: L::zero(),
-            oscillatory: L::zero(),
-            modified: L::zero(),
-        }
+        Sums([L::zero(); sum::COUNT])
     }
 
-    /// The four main channels [H, H_ω, H_slow, H*] from the sums and U.
+    /// The whole-state channels from the sums and U, each as its table entry's [`Value`] says
+    /// ([`crate::channels::CHANNELS`]). With `plain_modified` (H* = H_ω) the sweep left the
+    /// modified sum out and the oscillator sum stands in for it.
     #[inline(always)]
-    pub fn channels(self, u: L, plain_modified: bool) -> [L; FIRST_BLOCK] {
+    pub fn channels(mut self, u: L, plain_modified: bool) -> [L; FIRST_BLOCK] {
+        if plain_modified {
+            self.0[sum::MODIFIED] = self.0[sum::OSCILLATOR];
+        }
         let half = L::splat(0.5);
-        let oscillatory = half * self.oscillatory;
-        let slow = half * self.kinetic + u;
-        let modified = if plain_modified {
-            oscillatory
-        } else {
-            half * self.modified
-        };
-        let mut main = [L::zero(); FIRST_BLOCK];
-        main[TOTAL] = oscillatory + slow;
-        main[OSCILLATORY] = oscillatory;
-        main[SLOW] = slow;
-        main[MODIFIED] = modified;
-        main
+        // The table is a constant: each channel's loop unrolls to its own expression.
+        std::array::from_fn(|c| {
+            let Some(Value { halves, potential }) = CHANNELS[c].value else {
+                unreachable!("the whole-state channels come first and have values")
+            };
+            let mut value = potential.then_some(u);
+            for &s in halves.iter().rev() {
+                let term = half * self.0[s];
+                value = Some(value.map_or(term, |inner| term + inner));
+            }
+            value.unwrap_or(L::zero())
+        })
     }
 }
 

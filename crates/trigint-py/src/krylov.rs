@@ -8,7 +8,7 @@ use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArr
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use trigint_core::channels::{OSCILLATORY, SLOW, TOTAL};
+use trigint_core::channels::OSCILLATORY;
 use trigint_core::krylov::{
     self, Csr, Filter, KrylovCounts, MatrixFunctions, Settings, Trigonometric, Values,
     FUNCTION_COUNT,
@@ -260,10 +260,10 @@ pub fn integrate_krylov<'py>(
     Ok(r.with_info(info))
 }
 
-/// krylov_energies(potential, n, indptr, indices, data, q, p) -> array (B, 3)
+/// krylov_energies(potential, n, indptr, indices, data, q, p) -> array (B, channels)
 ///
-/// H, H_ω and H_slow of each row of q, p (B × n) on the Krylov path, by the core's formula (the
-/// one its runs stream).
+/// The channels of each row of q, p (B × n) on the Krylov path, in the order of
+/// `channels(1)`, by the core's formula (the one its runs stream; NaN for the modified energy).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (potential, n, indptr, indices_, data, q, p))]
@@ -286,9 +286,10 @@ pub fn krylov_energies<'py>(
     );
     let rows = with_potential!(pot, |pt| krylov::state_energies(&a, pt, &q, &p))
         .map_err(|e| to_py(e, pot))?;
+    // The row as a run records it: the main channels, then I_1 = H_ω of the one block.
     let picked: Vec<Vec<f64>> = rows
         .iter()
-        .map(|e| vec![e[TOTAL], e[OSCILLATORY], e[SLOW]])
+        .map(|e| e.iter().copied().chain([e[OSCILLATORY]]).collect())
         .collect();
     PyArray2::from_vec2(py, &picked).map_err(|e| PyValueError::new_err(e.to_string()))
 }

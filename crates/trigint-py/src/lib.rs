@@ -203,6 +203,39 @@ fn integrate_batch<'py>(
     )
 }
 
+/// state_energies(potential, layout, q, p, modified=None) -> array (B, channels)
+///
+/// The energy channels of each row of q, p (B × n, the core's coordinates) in the order of
+/// `channels(ℓ, axes)`, as a run observes its initial state; `modified` = (a, b), the modified
+/// energy's weights (3.4), or None for H* = H_ω.
+#[pyfunction]
+#[pyo3(signature = (potential, layout, q, p, modified=None))]
+fn state_energies<'py>(
+    py: Python<'py>,
+    potential: &Bound<'py, PyAny>,
+    layout: &Bound<'py, PyAny>,
+    q: PyReadonlyArray2<f64>,
+    p: PyReadonlyArray2<f64>,
+    modified: Option<(PyReadonlyArray1<f64>, PyReadonlyArray1<f64>)>,
+) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let given = handle::given(potential)?;
+    let pot = given.get();
+    let given_layout = handle::given_layout(layout)?;
+    let lay = given_layout.get();
+    let rows = q.shape()[0];
+    let (q, p): (Vec<f64>, Vec<f64>) = (
+        q.as_array().iter().copied().collect(),
+        p.as_array().iter().copied().collect(),
+    );
+    let modified = modified.map(|(a, b)| (convert::vec1(a), convert::vec1(b)));
+    let weights = modified.as_ref().map(|(a, b)| (&a[..], &b[..]));
+    let out = with_potential!(pot, |pt| trigint_core::run::state_energies(
+        pt, lay, weights, &q, &p
+    ))
+    .map_err(|e| to_py(e, pot))?;
+    to_2d(py, out, rows, channel_count(lay.n_blocks(), lay.n_axes()))
+}
+
 /// U at each row and −∇U at each row.
 pub(crate) type ValuesAndForces<'py> =
     (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
@@ -281,6 +314,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
     m.add_function(wrap_pyfunction!(tangent::tangent_batch, m)?)?;
     m.add_function(wrap_pyfunction!(change_basis, m)?)?;
+    m.add_function(wrap_pyfunction!(state_energies, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<handle::LayoutHandle>()?;
     m.add_class::<handle::MethodHandle>()?;

@@ -29,7 +29,8 @@ use run::KrylovRun;
 pub use tangent::tangent;
 pub use tridiagonal::Tridiagonal;
 
-use crate::channels::{FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
+use crate::channels::FIRST_BLOCK;
+use crate::energy::{sum, Sums};
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Record, TrajectoryOutput};
 use crate::potential::Potential;
@@ -42,17 +43,16 @@ pub struct KrylovCounts {
     pub products: u64,
 }
 
-/// The main channels at a state: H = ½|p|² + ½qᵀAq + U, the quadratic part as H_ω (and as the
-/// one block's energy, which the row repeats), U as H_slow, NaN for the modified energy (it
-/// needs the frequencies).
+/// The main channels at a state, from the channel table's values with the sums of the whole
+/// state as one block: Σ(p² + ω²q²) read as |p|² + qᵀAq (so H_ω = ½|p|² + ½qᵀAq, the one
+/// block's energy, which the row repeats), no slow coordinates (H_slow = U), and NaN for the
+/// modified sum (it needs the frequencies).
 fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64; FIRST_BLOCK] {
     a.apply(q, scratch);
-    let quadratic = 0.5 * (dot(p, p) + dot(q, scratch));
-    let mut e = [f64::NAN; FIRST_BLOCK];
-    e[TOTAL] = quadratic + u;
-    e[OSCILLATORY] = quadratic;
-    e[SLOW] = u;
-    e
+    let mut sums = Sums::zero();
+    sums.0[sum::OSCILLATOR] = dot(p, p) + dot(q, scratch);
+    sums.0[sum::MODIFIED] = f64::NAN;
+    sums.channels(u, false)
 }
 
 /// The main channels (see [`energies`]) of each state (rows of `q`, `p`, n values each): what

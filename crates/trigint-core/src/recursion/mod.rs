@@ -17,7 +17,7 @@
 //!   p_{n+1} = p_n − (1 − c) p_n − (s²/(hχ)) q_n + ½h (cψ/χ g_n + ψ/χ g_{n+1}).
 
 use crate::coefficients::{Coef, Weights};
-use crate::energy::{at, kinetic, modified, oscillator, Sums};
+use crate::energy::{at, kinetic, modified, oscillator, sum, Sums};
 use crate::error::CoreResult;
 use crate::potential::Potential;
 use crate::real::Real;
@@ -371,7 +371,7 @@ pub fn two_step_riding<L: Real, Sh: Shape>(
         h2: k.h2,
         inv_2h: k.inv_2h,
     };
-    (sums.kinetic, _) = observe_range(0, ns, (q, d, p, f), store, &slow);
+    (sums.0[sum::KINETIC], _) = observe_range(0, ns, (q, d, p, f), store, &slow);
     let rows = [a, hp, inv, w2, mp, mq];
     if let (Some(c), false) = (sh.uniform(), Sh::FIXED) {
         // One block (the uniform shapes have one).
@@ -379,14 +379,16 @@ pub fn two_step_riding<L: Real, Sh: Shape>(
             k: rows.map(|r| r[c]),
             plain,
         };
-        (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
+        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
+            observe_range(ns, n, (q, d, p, f), store, &fast);
         return sums;
     }
     let fast = FastRows { sh, rows, plain };
     if sh.single_block() {
-        (sums.oscillatory, sums.modified) = observe_range(ns, n, (q, d, p, f), store, &fast);
+        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
+            observe_range(ns, n, (q, d, p, f), store, &fast);
     } else {
-        (sums.oscillatory, sums.modified) =
+        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
             many_blocks(sh, (q, d, p, f), store, &fast, w, plain, blocks, riders);
     }
     sums
@@ -481,7 +483,7 @@ pub fn sums_of_state<L: Real, Sh: Shape>(
         assert!(sh.ns() <= n && sh.block_ends().iter().all(|&e| e <= n));
     }
     let mut sums = Sums::zero();
-    (sums.kinetic, _) = pairwise!(L, 0, ns, |i| (kinetic(at(p, i)), L::zero()));
+    (sums.0[sum::KINETIC], _) = pairwise!(L, 0, ns, |i| (kinetic(at(p, i)), L::zero()));
     macro_rules! block {
         ($start:expr, $end:expr) => {
             pairwise!(L, $start, $end, |i| {
@@ -497,9 +499,9 @@ pub fn sums_of_state<L: Real, Sh: Shape>(
         };
     }
     if sh.single_block() {
-        (sums.oscillatory, sums.modified) = block!(ns, n);
+        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) = block!(ns, n);
     } else {
-        (sums.oscillatory, sums.modified) =
+        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
             over_blocks(ns, sh.block_ends(), blocks, |a, b| block!(a, b));
     }
     sums

@@ -14,6 +14,7 @@ mod bundle;
 mod drive;
 mod hot;
 mod lanes;
+mod observe;
 mod record;
 mod renormalize;
 pub(crate) use renormalize::{check_tangent, Renormalizer};
@@ -29,6 +30,7 @@ pub use bundle::Bundle;
 pub(crate) use bundle::Lane;
 pub use drive::Control;
 pub(crate) use drive::{run, Stepper};
+pub use observe::state_energies;
 pub(crate) use record::{finish, Good, LaneBook};
 
 /// Whether the oscillatory coordinates share one frequency and one set of method numbers in
