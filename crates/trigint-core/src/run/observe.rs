@@ -15,13 +15,15 @@ use crate::shape::Layout;
 /// modified energy's weights (a_i, b_i) of (3.4); without them H* is H_ω.
 ///
 /// ```
-/// use trigint_core::{run::state_energies, Fpu, Layout};
+/// use trigint_core::{channel_names, run::state_energies, Fpu, Layout};
 /// // one slow and one stiff coordinate (ω = 2), at q = 0
 /// let layout = Layout { omega2: vec![0.0, 4.0], n_slow: 1, block_ends: vec![2], pair_forms: None };
 /// let pot = Fpu::new(1).unwrap(); // U(0) = 0
-/// let rows = state_energies(&pot, &layout, None, &[0.0, 0.0], &[1.0, 1.0]).unwrap();
-/// // total, oscillatory, slow, modified (= H_ω), oscillatory_1
-/// assert_eq!(rows, vec![1.0, 0.5, 0.5, 0.5, 0.5]);
+/// let row = state_energies(&pot, &layout, None, &[0.0, 0.0], &[1.0, 1.0]).unwrap();
+/// let names = channel_names(1, 0);
+/// let e = |name: &str| row[names.iter().position(|n| n == name).unwrap()];
+/// assert_eq!((e("total"), e("oscillatory"), e("slow")), (1.0, 0.5, 0.5));
+/// assert_eq!((e("modified_oscillatory"), e("oscillatory_1")), (0.5, 0.5)); // H* = H_ω = I_1
 /// ```
 pub fn state_energies<P: Potential>(
     pot: &P,
