@@ -12,7 +12,7 @@ def numpy_energies(problem, q, p, coefficients=None) -> dict:
     """The channels of rows of q, p from the formulas, in NumPy: I_j = Σ_{i in block j}
     ½(p_i² + ω_i² q_i²) (in the modal or Fourier coordinates of a stiffness matrix or a wave
     equation, whose potential takes the Fourier coordinates), H_slow = ½|p₀|² + U(q),
-    H = H_ω + H_slow, H* = Σ ½(a_i p_i² + b_i q_i²)."""
+    H = H_ω + H_slow, H* = Σ ½(a_i p_i² + b_i q_i²), T_slow = ½|p₀|² (``kinetic``)."""
     q, p = np.atleast_2d(q), np.atleast_2d(p)
     if problem.coordinate_map is not None:  # a wave equation's potential takes these coordinates
         q, p = problem.coordinate_map.to_core(q), problem.coordinate_map.to_core(p)
@@ -24,6 +24,7 @@ def numpy_energies(problem, q, p, coefficients=None) -> dict:
     out = {"total": None, "oscillatory": terms[:, blocks > 0].sum(axis=1),
            "slow": 0.5 * (p[:, blocks == 0] ** 2).sum(axis=1) + u}
     out["total"] = out["oscillatory"] + out["slow"]
+    out["kinetic"] = 0.5 * (p[:, blocks == 0] ** 2).sum(axis=1)
     if coefficients is not None:
         fast = omega > 0
         a, b = coefficients.modified_p[fast], coefficients.modified_q[fast]

@@ -57,7 +57,7 @@ pub struct Channel {
 }
 
 /// The channels in output order: the whole-state channels, then the per-block ones.
-pub const CHANNELS: [Channel; 6] = [
+pub const CHANNELS: [Channel; 7] = [
     Channel {
         name: "total",
         form: "H = H_omega + H_slow",
@@ -95,6 +95,16 @@ pub const CHANNELS: [Channel; 6] = [
         per_axis: false,
         value: Some(Value {
             halves: &[sum::MODIFIED],
+            potential: false,
+        }),
+    },
+    Channel {
+        name: "kinetic",
+        form: "T_slow = |p_0|^2/2, the kinetic part of H_slow",
+        per_block: false,
+        per_axis: false,
+        value: Some(Value {
+            halves: &[sum::KINETIC],
             potential: false,
         }),
     },
@@ -207,21 +217,22 @@ mod tests {
                 "oscillatory",
                 "slow",
                 "modified_oscillatory",
+                "kinetic",
                 "oscillatory_1",
                 "oscillatory_2"
             ]
         );
         assert_eq!(
             (TOTAL, OSCILLATORY, SLOW, MODIFIED, FIRST_BLOCK),
-            (0, 1, 2, 3, 4)
+            (0, 1, 2, 3, 5)
         );
-        assert_eq!(channel_count(0, 0), 4);
+        assert_eq!(channel_count(0, 0), 5);
         for (blocks, axes) in [(0, 0), (1, 0), (7, 3), (32769, 1)] {
             assert_eq!(
                 channel_count(blocks, axes),
                 channel_names(blocks, axes).len()
             );
         }
-        assert_eq!(channel_names(1, 2)[5..], ["momentum_1", "momentum_2"]);
+        assert_eq!(channel_names(1, 2)[6..], ["momentum_1", "momentum_2"]);
     }
 }
