@@ -245,21 +245,17 @@ impl<L: Real> Extremes<L> {
         }
     }
 
-    /// Takes the channels of one step into the running extremes (whole arrays, so every access
-    /// has the same width: stores of one width read back in another stall store forwarding).
-    /// With `skip_modified` (H* = H_ω) the modified channel is left for the caller to copy.
+    /// Takes the channels of one step into the running extremes, channel by channel in place:
+    /// every access has the width of one channel, whatever their number (a copy of the arrays
+    /// updated element by element and written back whole was read back in another width than
+    /// it was stored, which stalls store forwarding, once there were five channels). Where H* is
+    /// H_ω its channel repeats H_ω's value, so its extremes are H_ω's.
     #[inline(always)]
-    pub fn update(&mut self, main: &[L; FIRST_BLOCK], skip_modified: bool) {
-        let (mut high, mut low) = (self.high, self.low);
+    pub fn update(&mut self, main: &[L; FIRST_BLOCK]) {
         for c in 0..FIRST_BLOCK {
-            if skip_modified && c == MODIFIED {
-                continue;
-            }
-            high[c] = high[c].keep_max(main[c]);
-            low[c] = low[c].keep_min(main[c]);
+            self.high[c] = self.high[c].keep_max(main[c]);
+            self.low[c] = self.low[c].keep_min(main[c]);
         }
-        self.high = high;
-        self.low = low;
     }
 
     /// Takes the per-block channels (ℓ > 1, else empty) and then the per-axis ones.

@@ -286,7 +286,7 @@ impl<
             if TRACK {
                 let main = sums.channels(st.u, PLAIN);
                 guard += main[TOTAL] * zero;
-                ext.update(&main, PLAIN);
+                ext.update(&main);
                 if extremes_in_memory {
                     // The extremes' address escapes: they are stored here and reloaded when
                     // next needed, rather than kept in registers across the step.

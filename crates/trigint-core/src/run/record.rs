@@ -41,7 +41,7 @@ impl<L: Real> LaneBook<'_, L> {
     pub fn update_extremes(&mut self, main: &[L; FIRST_BLOCK], blocks: &[L], mask: LaneSet) {
         let ext = &mut *self.ext;
         if mask == LaneSet::first(L::LANES) {
-            ext.update(main, false);
+            ext.update(main);
             ext.update_blocks(blocks, &[]);
             return;
         }
