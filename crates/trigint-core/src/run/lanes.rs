@@ -12,7 +12,7 @@
 
 use super::bundle::{Bundle, CHECK};
 use crate::coefficients::{Coef, Weights};
-use crate::energy::{at, Extremes, FIRST_BLOCK, TOTAL};
+use crate::energy::{at, Extremes, FIRST_BLOCK, MODIFIED, TOTAL};
 use crate::error::CoreResult;
 use crate::potential::Potential;
 use crate::real::{LaneSet, Real};
@@ -245,6 +245,9 @@ fn step_lane_group<
             let main = sums.channels(s.u, PLAIN);
             set(guard, b, at(guard, b) + main[TOTAL] * 0.0);
             for (c, &x) in main.iter().enumerate() {
+                if PLAIN && c == MODIFIED {
+                    continue; // H* = H_ω: its extremes are copied from H_ω's at the end
+                }
                 let i = c * width + b;
                 set(high, i, at(high, i).keep_max(x));
                 set(low, i, at(low, i).keep_min(x));
