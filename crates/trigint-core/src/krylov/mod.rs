@@ -34,7 +34,7 @@ use crate::energy::{sum, Sums};
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Record, TrajectoryOutput};
 use crate::potential::Potential;
-use crate::run::{check_state, Control};
+use crate::run::{check_state, check_state_rows, Control};
 
 /// What a Krylov run adds to its output: the Lanczos counts.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -65,16 +65,7 @@ pub fn state_energies<P: Potential>(
 ) -> CoreResult<Vec<[f64; FIRST_BLOCK]>> {
     let n = a.n();
     pot.check_dim(n)?;
-    if q.len() != p.len() || !q.len().is_multiple_of(n.max(1)) {
-        return Err(CoreError::invalid(
-            "q",
-            format!(
-                "{} positions and {} momenta: expected rows of {n} values each, as many of both",
-                q.len(),
-                p.len()
-            ),
-        ));
-    }
+    check_state_rows(q, p, n)?;
     let mut ws = pot.workspace::<f64>();
     let mut scratch = vec![0.0; n];
     q.chunks_exact(n)

@@ -116,6 +116,22 @@ pub(crate) fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) 
     Ok(())
 }
 
+/// States given as rows: q and p hold rows of n numbers each, as many of both (what
+/// `state_energies` of either path takes).
+pub(crate) fn check_state_rows(q: &[f64], p: &[f64], n: usize) -> CoreResult<()> {
+    if q.len() != p.len() || !q.len().is_multiple_of(n.max(1)) {
+        return Err(CoreError::invalid(
+            "q",
+            format!(
+                "{} positions and {} momenta: expected rows of {n} values each, as many of both",
+                q.len(),
+                p.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn check_common<P: Potential>(pot: &P, layout: &Layout, record: &Record) -> CoreResult<()> {
     layout.validate()?;
     pot.check_dim(layout.dim())?;

@@ -8,6 +8,7 @@ use crate::coefficients::{MethodCoefficients, Weights};
 use crate::error::{CoreError, CoreResult};
 use crate::potential::Potential;
 use crate::recursion::sums_of_state;
+use crate::run::check_state_rows;
 use crate::shape::Layout;
 
 /// The channels (in output order, [`crate::channels::channel_names`]) of each state: rows of
@@ -35,16 +36,7 @@ pub fn state_energies<P: Potential>(
     layout.validate()?;
     let n = layout.dim();
     pot.check_dim(n)?;
-    if q.len() != p.len() || !q.len().is_multiple_of(n.max(1)) {
-        return Err(CoreError::invalid(
-            "q",
-            format!(
-                "{} positions and {} momenta: expected rows of {n} values each, as many of both",
-                q.len(),
-                p.len()
-            ),
-        ));
-    }
+    check_state_rows(q, p, n)?;
     let (a, b) = modified.unwrap_or((&[], &[]));
     if modified.is_some() && (a.len() != n || b.len() != n) {
         return Err(CoreError::invalid(
@@ -86,4 +78,33 @@ pub fn state_energies<P: Potential>(
         }
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Fpu;
+
+    #[test]
+    fn rows_and_weights_of_the_wrong_size_are_errors_that_say_so() {
+        let layout = Layout {
+            omega2: vec![0.0, 4.0],
+            n_slow: 1,
+            block_ends: vec![2],
+            pair_forms: None,
+        };
+        let pot = Fpu::new(1).unwrap();
+        let e = state_energies(&pot, &layout, None, &[0.0; 3], &[0.0; 3]).unwrap_err();
+        assert!(e.to_string().contains("expected rows of 2 values"), "{e}");
+        let weights = Some((&[1.0][..], &[4.0][..]));
+        let e = state_energies(&pot, &layout, weights, &[0.0; 2], &[0.0; 2]).unwrap_err();
+        assert!(
+            e.to_string().contains("1 and 1 weights for 2 coordinates"),
+            "{e}"
+        );
+        // two states, each row as the channels of one
+        let rows = state_energies(&pot, &layout, None, &[0.0; 4], &[1.0, 1.0, 2.0, 0.0]).unwrap();
+        assert_eq!(rows.len(), 2 * crate::channel_count(1, 0));
+        assert_eq!(rows[crate::channel_count(1, 0)], 2.0); // H of (p0, p1) = (2, 0)
+    }
 }
