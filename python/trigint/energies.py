@@ -53,9 +53,13 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     Returns
     -------
     xarray.Dataset
-        ``total``, ``oscillatory`` (H_ω), ``slow`` (½|p₀|² + U), ``oscillatory_1`` … (the I_j)
-        and, when `method` and `h` are given, ``modified_oscillatory`` (H*_ω or H*_ω̃); over a
-        ``sample`` dimension for 2-d input.
+        Every channel a run streams, in the core's order (:func:`energy_names`): ``total``,
+        ``oscillatory`` (H_ω), ``slow`` (½|p₀|² + U), ``kinetic`` (½|p₀|²), ``oscillatory_1`` …
+        (the I_j), a wave equation's ``momentum_1`` …, and, when `method` and `h` are given,
+        ``modified_oscillatory`` (H*_ω or H*_ω̃); over a ``sample`` dimension for 2-d input.
+        Computed by the core as a run observes its initial state: at a run's samples these
+        are the streamed values (bit for bit where no modal basis or grid map rounds the
+        samples on their way back).
 
     Examples
     --------
