@@ -97,7 +97,7 @@ impl<L: Real> LaneBook<'_, L> {
     pub fn end_lane(&mut self, b: usize, status: Status, steps_done: u64, message: String) {
         let (mut high, mut low) = self.ext.lane(b, self.n_blocks);
         if self.plain_modified {
-            // H* is H_ω: its extremes were not kept separately.
+            // H* is H_ω: its extremes are H_ω's (the lane loop does not take them).
             high[MODIFIED] = high[OSCILLATORY];
             low[MODIFIED] = low[OSCILLATORY];
         }
