@@ -321,7 +321,7 @@ def _plot_strata(ds):
     ax.legend(fontsize=7, frameon=False)
     ax = axes[2]
     h = ds.h.values
-    for v in h[ds.predicted_rise.values >= ds.attrs["break_factor"]]:
+    for v in h[ds.largest_predicted_rise.values >= ds.attrs["break_factor"]]:
         ax.axvline(v, color="tab:red", lw=0.5, alpha=0.35)
     ax.plot(h, ds.largest_rise.values, color="black", lw=0.8)
     ax.axhline(ds.attrs["break_factor"], color="grey", ls="--", lw=0.7)

@@ -192,7 +192,7 @@ KEYS = {
         **COMMON, "problem": Str(("wave",)), "n": Int(2, 2**12), "rho": POSITIVE, "potential": Str(),
         "method": Method(), "epsilons": List(POSITIVE), "h": POSITIVE, "t_end": POSITIVE, "modes": Int(1, 64),
         "scan_epsilon": POSITIVE, "h_min": POSITIVE, "h_max": POSITIVE, "points": Int(2, 10**5),
-        "scan_t_end": POSITIVE, "order": Int(2, 5), "tolerance": POSITIVE, "exponent_tolerance": POSITIVE,
+        "scan_t_end": POSITIVE, "order": Int(2, 5), "holdout_rho": NONNEG, "exponent_tolerance": POSITIVE,
         "floor_factor": POSITIVE, "band_bound": POSITIVE, "break_factor": POSITIVE, "recall_min": POSITIVE,
         "first_factor": POSITIVE, "precision_min": POSITIVE,
     },

@@ -98,10 +98,12 @@ def strata_resonances(problem, h: float, mode_energies, method="B", *, order: in
         a = |h²ψ(hω̃_j)(ω_j² − s²) / (4 sin(½h(ω̃_j + s)) sin(½h(ω̃_j − s)))| · Πφ(hω̃_{k_i}),
 
     the small denominator of the modulated Fourier expansion with the method's filters (ψ → 0
-    at hω̃_j ∈ πℤ for method B, which mutes those resonances). ``weight`` = a · A_{k_1}⋯A_{k_r} / A_j
-    (A = √E of the strata) is the predicted rise of mode j's amplitude above its stratum;
-    ``affected`` is j. Largest weight first: the first entry is the stratum predicted to break
-    first.
+    at hω̃_j ∈ πℤ for method B, which mutes those resonances). ``weight`` =
+    (a · A_{k_1}⋯A_{k_r} / A_j)² (A = √E of the strata) is the predicted rise of mode j's
+    *energy* above its stratum; ``affected`` is j. Largest weight first: the first entry is the
+    stratum predicted to break first. :meth:`Combinations.rises` gives every mode's predicted
+    rise from every combination, near a resonance or not (the amplification a carries the
+    distance).
 
     Parameters
     ----------
@@ -127,7 +129,7 @@ def strata_resonances(problem, h: float, mode_energies, method="B", *, order: in
     Returns
     -------
     list of WaveResonance
-        With ``affected`` (the mode j) and ``weight`` (the predicted amplitude rise).
+        With ``affected`` (the mode j) and ``weight`` (the predicted rise of its energy).
 
     Examples
     --------
@@ -182,8 +184,6 @@ class Combinations:
         tolerance : float
             The threshold on |sin(½h(ω_j + s))|.
         """
-        from .._method_names import resolve_method
-
         omega, modes = self.problem.mode_frequencies, self.problem.modes
         j = self.target
         combo = omega[j] + self.s
@@ -191,14 +191,10 @@ class Combinations:
         near = np.flatnonzero((dist < tolerance) & (np.abs(0.5 * h * combo) >= np.pi / 2))
         if near.size == 0:
             return []
-        coef = resolve_method(method).coefficients(h, omega)
-        omega_tilde, psi, phi = coef.xi_tilde / h, coef.psi, coef.phi
+        weights = self._weights(h, method, near)
         found: dict = {}
-        for c in near:
-            b, s = j[c], self.s[c]
-            gain = abs(h * h * psi[b] * (omega[b] ** 2 - s * s) / (
-                4 * np.sin(0.5 * h * (omega_tilde[b] + s)) * np.sin(0.5 * h * (omega_tilde[b] - s))))
-            weight = float(gain * self.ratio[c] * np.prod(np.abs(phi[list(self.drivers[c])])))
+        for c, weight in zip(near, weights, strict=True):
+            b, weight = j[c], float(weight)
             vectors = (_wavevector(modes[b]),) + tuple(_wavevector(modes[k]) for k in self.drivers[c])
             key = (vectors, round(abs(float(combo[c])), 9))
             if key not in found or found[key].weight < weight:
@@ -206,6 +202,53 @@ class Combinations:
                 found[key] = WaveResonance(vectors, signs, float(combo[c]), float(dist[c]), _wavevector(modes[b]),
                                            weight)
         return sorted(found.values(), key=lambda x: (-x.weight, x.modes))
+
+    def rises(self, h: float, method="B") -> np.ndarray:
+        """Every mode's predicted energy rise above its stratum at step size `h`: the largest
+        ``weight`` of :func:`strata_resonances` over *every* combination that drives it, near a
+        resonance or not (1 for a mode no combination drives). Where it reaches 10 the stratum
+        is predicted to break; the amplification itself says how near the resonance is, so no
+        distance threshold is applied.
+
+        Parameters
+        ----------
+        h : float
+            The step size.
+        method : Method or str
+            The method whose filters enter the amplification.
+
+        Returns
+        -------
+        array, shape (ℓ,)
+            One value per mode (block).
+
+        Examples
+        --------
+        >>> import numpy as np, trigint as ti
+        >>> prob = ti.problems.wave(32, rho=0.5, potential="-u**3/3")
+        >>> e = np.zeros(len(prob.modes)); e[1] = 1e-6
+        >>> rise = ti.resonance.combinations(prob, e).rises(0.965)
+        >>> int(np.argmax(rise)), f"{rise.max():.0e}"         # mode 4 = 1 + 1 + 1 + 1
+        (4, '9e+06')
+        """
+        h = step_size(h)
+        out = np.ones(len(self.problem.modes))
+        if self.target.size:
+            np.maximum.at(out, self.target, self._weights(h, method, np.arange(self.target.size)))
+        return out
+
+    def _weights(self, h: float, method, chosen: np.ndarray) -> np.ndarray:
+        """(a · A_{k_1}⋯A_{k_r} / A_j)² of the `chosen` combinations (see :func:`strata_resonances`)."""
+        from .._method_names import resolve_method
+
+        omega = self.problem.mode_frequencies
+        coef = resolve_method(method).coefficients(h, omega)
+        omega_tilde, psi, phi = coef.xi_tilde / h, coef.psi, coef.phi
+        b, s = self.target[chosen], self.s[chosen]
+        gain = np.abs(h * h * psi[b] * (omega[b] ** 2 - s * s) / (
+            4 * np.sin(0.5 * h * (omega_tilde[b] + s)) * np.sin(0.5 * h * (omega_tilde[b] - s))))
+        filters = np.array([np.prod(np.abs(phi[list(self.drivers[c])])) for c in chosen])
+        return (gain * self.ratio[chosen] * filters) ** 2
 
     def largest_rise(self, h: float, method="B", tolerance: float = 0.05) -> float:
         """The largest predicted rise at `h` (0 where nothing is near a resonance).
