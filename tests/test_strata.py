@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 import trigint as ti
-from trigint.experiments.strata_runner import band_exponents, counted_modes, exponents
+from trigint.experiments.strata_runner import band_exponents, counted_modes, exponents, flag_match
 
 N, RHO = 32, 0.5
 
@@ -77,6 +77,38 @@ def test_a_flagged_step_size_breaks_the_predicted_stratum(prob):
     calm, resonant = mode_max(0.05), mode_max(0.965)
     assert resonant[4] > 100 * calm[4]  # the predicted stratum leaves its band
     assert not ti.resonance.strata_resonances(prob, 0.05, e0)  # the small step is flagged by nothing
+
+
+def test_predicted_rises_tend_to_one_for_small_steps_and_match_the_ranking(prob):
+    e0 = np.zeros(len(prob.modes))
+    e0[1] = 0.5 * (RHO + 1) * 1e-6 / 2  # ε = 1e-3
+    table = ti.resonance.combinations(prob, e0)
+    # h → 0: the method's small denominators become the equation's (a → 1): no stratum moves
+    np.testing.assert_allclose(table.rises(0.005)[:6], 1.0, atol=1e-4)
+    rises = table.rises(0.965)
+    ranked = table.resonances(0.965)
+    assert int(np.argmax(rises)) == 4 and rises[4] == pytest.approx(ranked[0].weight, rel=1e-12)
+    for r in ranked:  # every near-resonant combination's rise is within its mode's (all combinations)
+        assert rises[r.affected[0]] >= r.weight * (1 - 1e-12)
+    assert 10 < rises[3] < rises[5] < rises[4]  # the ranking: mode 4 far first, then 5, then 3
+
+
+def test_flag_match_counts_flags_that_break_and_breaks_that_are_flagged():
+    eps, k = np.array([1e-2, 1e-3]), np.arange(4)
+    band = 0.3 * eps[:, None] ** band_exponents(k)[None, :]
+    energy = np.repeat(band[:, None, :], 2, axis=1)
+    # five step sizes, modes 0, 2, 3 counted (mode 1 is the excited one): measured rises over the band
+    measured = np.array([[1, 1, 50, 1], [1, 1, 1, 1], [1, 1, 1, 2], [1, 1, 1, 1], [20, 1, 1, 1]], dtype=float)
+    predicted = np.array([[1, 1, 30, 1], [1, 1, 1, 1], [1, 1, 1, 40], [1, 1, 1, 1], [1, 1, 1, 1]], dtype=float)
+    ds = xr.Dataset({"mode_energy": (("epsilon", "t", "k"), energy), "floor": ("epsilon", [1e-40, 1e-40]),
+                     "scan_max_energy": (("point", "k"), measured * band[1]),
+                     "predicted_rise": (("point", "k"), predicted)},
+                    coords={"epsilon": eps, "t": [0.0, 1.0], "k": k},
+                    attrs={"floor_factor": 1e3, "scan_epsilon": 1e-3, "break_factor": 10.0})
+    precision, flagged, recall, broken = flag_match(ds)
+    # flags at points 0 (mode 2 rises 50x: a hit) and 2 (mode 3 rises 2x: a miss); breaks at 0 and 4
+    assert (flagged, broken) == (2, 2) and precision == 0.5
+    assert recall == 0.5  # point 4 breaks with no flag at it or at its neighbour 3
 
 
 def test_the_ranking_refuses_bad_input(prob):

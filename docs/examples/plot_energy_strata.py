@@ -20,7 +20,7 @@ e0 = np.zeros(len(prob.modes))
 e0[1] = 0.375 * eps**2  # E_1 of ε cos x: ½ ω_1² ε²/2
 for h in (0.05, 0.965):
     found = ti.resonance.strata_resonances(prob, h, e0)
-    print(f"h = {h}: " + (f"mode {found[0].affected[0]} predicted to rise {found[0].weight:.3g}x" if found
+    print(f"h = {h}: " + (f"mode {found[0].affected[0]} predicted to rise {found[0].weight:.3g}x in energy" if found
                           else "no combination near a resonance"))
 
 fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)

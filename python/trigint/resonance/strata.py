@@ -170,6 +170,10 @@ class Combinations:
     def __init__(self, problem, target, drivers, frequency_signs, s, ratio):
         self.problem, self.target, self.drivers = problem, target, drivers
         self.frequency_signs, self.s, self.ratio = frequency_signs, s, ratio
+        pad = len(problem.modes)  # the index of the padding's |φ| = 1
+        self._driver_table = np.full((len(drivers), frequency_signs.shape[1]), pad)
+        for c, d in enumerate(drivers):
+            self._driver_table[c, : len(d)] = d
 
     def resonances(self, h: float, method="B", tolerance: float = 0.05) -> list[WaveResonance]:
         """The combinations near a resonance at step size `h`, largest predicted rise first
@@ -247,8 +251,9 @@ class Combinations:
         b, s = self.target[chosen], self.s[chosen]
         gain = np.abs(h * h * psi[b] * (omega[b] ** 2 - s * s) / (
             4 * np.sin(0.5 * h * (omega_tilde[b] + s)) * np.sin(0.5 * h * (omega_tilde[b] - s))))
-        filters = np.array([np.prod(np.abs(phi[list(self.drivers[c])])) for c in chosen])
-        return (gain * self.ratio[chosen] * filters) ** 2
+        # Πφ(hω̃_{k_i}) over each combination's drivers: a padded index table, |φ| = 1 in the padding
+        factors = np.abs(np.append(phi, 1.0))[self._driver_table[chosen]]
+        return (gain * self.ratio[chosen] * np.prod(factors, axis=1)) ** 2
 
     def largest_rise(self, h: float, method="B", tolerance: float = 0.05) -> float:
         """The largest predicted rise at `h` (0 where nothing is near a resonance).
