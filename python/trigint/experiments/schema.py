@@ -194,7 +194,7 @@ KEYS = {
         "scan_epsilon": POSITIVE, "h_min": POSITIVE, "h_max": POSITIVE, "points": Int(2, 10**5),
         "scan_t_end": POSITIVE, "order": Int(2, 5), "holdout_rho": NONNEG, "exponent_tolerance": POSITIVE,
         "floor_factor": POSITIVE, "band_bound": POSITIVE, "break_factor": POSITIVE, "recall_min": POSITIVE,
-        "first_factor": POSITIVE, "precision_min": POSITIVE,
+        "first_factor": POSITIVE, "precision_min": POSITIVE, "ladder_min": POSITIVE,
     },
 }
 REQUIRED = {

@@ -73,13 +73,39 @@ def run_strata(fig: dict) -> xr.Dataset:
                "floor_factor": float(fig.get("floor_factor", 1e3)), "band_bound": float(fig.get("band_bound", 1.0)),
                "break_factor": float(fig.get("break_factor", 10.0)), "recall_min": float(fig.get("recall_min", 0.9)),
                "first_factor": float(fig.get("first_factor", 100.0)),
-               "precision_min": float(fig.get("precision_min", 0.8))},
+               "precision_min": float(fig.get("precision_min", 0.8)),
+               "ladder_min": float(fig.get("ladder_min", 0.9))},
     )
     if holdout_rho is not None:
         ds.attrs["holdout_rho"] = float(holdout_rho)
     ds["largest_rise"] = ("point", np.nanmax(scan_rise(ds), axis=1))  # what panel (c) plots
     ds["largest_predicted_rise"] = ("point", top_prediction(ds)[1])  # panel (c)'s flags
+    ds["first_pass"] = (("point", "k"), _first_passes(ds, prob, "main"))
+    if holdout_rho is not None:
+        ds["holdout_first_pass"] = (("point", "k"), _first_passes(ds, other, "holdout"))
     return ds
+
+
+def _first_passes(ds: xr.Dataset, prob, scan: str) -> np.ndarray:
+    """At each step size of a scan with a predicted rise ≥ `first_factor`, followed in time: the
+    first sample time at which each mode's energy passes `first_factor` × its band (inf where
+    it never does; NaN at the step sizes not followed)."""
+    a = ds.attrs
+    band = _band(ds, scan)
+    out = np.full((ds.point.size, ds.k.size), np.nan)
+    for i in np.flatnonzero(top_prediction(ds, scan)[1] >= a["first_factor"]):
+        energy, t = _mode_energy_run(prob, a["method"], a["scan_epsilon"], float(ds.h.values[i]), a["scan_t_end"],
+                                     3000)
+        over = energy[:, : ds.k.size] >= a["first_factor"] * band
+        out[i] = np.where(over.any(axis=0), t[np.argmax(over, axis=0)], np.inf)
+    return out
+
+
+def _band(ds: xr.Dataset, scan: str) -> np.ndarray:
+    """Each mode's band for a scan: max_t E_k at the non-resonant step size, same ε."""
+    if scan == "main":
+        return ds.mode_energy.sel(epsilon=ds.attrs["scan_epsilon"]).max("t").values
+    return ds.holdout_band.values
 
 
 def _problem(fig: dict, rho: float):
@@ -144,12 +170,8 @@ def scan_rise(ds: xr.Dataset, scan: str = "main") -> np.ndarray:
     """max_t E_k over a scan divided by the mode's band, max_t E_k at the non-resonant step
     size for the same ε, per (point, k), for the counted modes other than the excited mode 1
     (NaN elsewhere). `scan` is "main" or "holdout" (the scan at the second ρ)."""
-    if scan == "main":
-        band = ds.mode_energy.sel(epsilon=ds.attrs["scan_epsilon"]).max("t").values
-        rise = ds.scan_max_energy.values / band
-    else:
-        rise = ds.holdout_max_energy.values / ds.holdout_band.values
-    return np.where(_kept(ds), rise, np.nan)
+    measured = ds.scan_max_energy.values if scan == "main" else ds.holdout_max_energy.values
+    return np.where(_kept(ds), measured / _band(ds, scan), np.nan)
 
 
 def top_prediction(ds: xr.Dataset, scan: str = "main") -> tuple[np.ndarray, np.ndarray]:
@@ -185,11 +207,24 @@ def flag_match(ds: xr.Dataset, scan: str = "main") -> tuple[float, int, float, i
     return precision, int(flagged.sum()), recall, int(broken.sum())
 
 
+def ladder_share(ds: xr.Dataset, scan: str = "main") -> tuple[float, int]:
+    """At the step sizes followed in time (predicted rise ≥ `first_factor`) where a counted
+    stratum passes `first_factor` × its band: the share where the first to pass is the
+    top-ranked mode j or a mode above it (k > j, which a broken j drives), and how many."""
+    first = ds.first_pass.values if scan == "main" else ds.holdout_first_pass.values
+    mode, _ = top_prediction(ds, scan)
+    kept = _kept(ds)
+    hits = []
+    for i in np.flatnonzero(np.isfinite(np.where(kept, first, np.inf)).any(axis=1)):
+        times = np.where(kept, first[i], np.inf)
+        hits.append(int(np.argmin(times)) >= mode[i])
+    return (float(np.mean(hits)) if hits else np.nan), len(hits)
+
+
 def first_breaks(ds: xr.Dataset) -> np.ndarray:
     """At the top-ranked step size of the scan: the first sample time at which each mode's
     energy exceeds `first_factor` × its band (inf where it never does)."""
-    band = ds.mode_energy.sel(epsilon=ds.attrs["scan_epsilon"]).max("t").values
-    over = ds.top_energy.values >= ds.attrs["first_factor"] * band
+    over = ds.top_energy.values >= ds.attrs["first_factor"] * _band(ds, "main")
     t = ds.t_top.values
     return np.array([t[np.argmax(over[:, k])] if over[:, k].any() else np.inf for k in range(over.shape[1])])
 
@@ -243,4 +278,11 @@ def strata_claims(ds: xr.Dataset) -> list[Claim]:
                   f"the tool flags (at h or a neighbour): share of {broken}", recall,
                   f"≥ {a['recall_min']:g}", "share", bool(recall >= a["recall_min"])),
         ]
+        ladder, followed = ladder_share(ds, scan)
+        claims.append(
+            Claim(fig, f"scan at {label}: followed in time at the step sizes with a predicted rise ≥ "
+                  f"{a['first_factor']:g} where a stratum passes {a['first_factor']:g} × its band, the first "
+                  f"to pass is the top-ranked mode j or one above it (k > j, driven by j): share of {followed}",
+                  ladder, f"≥ {a['ladder_min']:g}", "share",
+                  bool(ladder >= a["ladder_min"])))
     return claims
