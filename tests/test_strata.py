@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 import trigint as ti
-from trigint.experiments.strata_runner import band_exponents, counted_modes, exponents, flag_match
+from trigint.experiments.strata_runner import band_exponents, counted_modes, exponents, flag_match, ladder_share
 
 N, RHO = 32, 0.5
 
@@ -109,6 +109,14 @@ def test_flag_match_counts_flags_that_break_and_breaks_that_are_flagged():
     # flags at points 0 (mode 2 rises 50x: a hit) and 2 (mode 3 rises 2x: a miss); breaks at 0 and 4
     assert (flagged, broken) == (2, 2) and precision == 0.5
     assert recall == 0.5  # point 4 breaks with no flag at it or at its neighbour 3
+    # followed in time (NaN: not followed; inf: never passes): the first to pass at point 0 is mode 3,
+    # above the top-ranked mode 2 (a hit); at point 2, mode 0, below the top-ranked mode 3 (a miss)
+    first = np.full((5, 4), np.nan)
+    first[0] = [np.inf, np.inf, 9.0, 5.0]
+    first[2] = [4.0, 1.0, np.inf, 8.0]  # mode 1, the excited one, does not count
+    first[3] = np.inf  # followed, nothing passes: not counted
+    ds["first_pass"] = (("point", "k"), first)
+    assert ladder_share(ds) == (0.5, 2)
 
 
 def test_the_ranking_refuses_bad_input(prob):

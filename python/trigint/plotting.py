@@ -292,7 +292,7 @@ def _plot_methods(ds):
 
 def _plot_strata(ds):
     """The strata figure: E_k(t) at the largest ε (bands), max_t E_k against k for every ε with
-    ε^{2k}, and the scan's largest rise over the bands against h with the tool's flags."""
+    ε^{2k}, and the scan's largest rise over the bands against h, measured and predicted."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
     ax = axes[0]
@@ -321,10 +321,10 @@ def _plot_strata(ds):
     ax.legend(fontsize=7, frameon=False)
     ax = axes[2]
     h = ds.h.values
-    for v in h[ds.largest_predicted_rise.values >= ds.attrs["break_factor"]]:
-        ax.axvline(v, color="tab:red", lw=0.5, alpha=0.35)
-    ax.plot(h, ds.largest_rise.values, color="black", lw=0.8)
-    ax.axhline(ds.attrs["break_factor"], color="grey", ls="--", lw=0.7)
+    ax.plot(h, ds.largest_predicted_rise.values, color="tab:red", lw=0.8, label="predicted (the tool)")
+    ax.plot(h, ds.largest_rise.values, color="black", lw=0.8, label="measured")
+    ax.axhline(ds.attrs["break_factor"], color="grey", ls="--", lw=0.7, label="a stratum breaks")
+    ax.legend(fontsize=7, frameon=False, loc="upper left")
     ax.set_yscale("log")
     ax.set_xlabel("step size h")
     ax.set_ylabel(f"largest rise of a mode over its band, ε = {ds.attrs['scan_epsilon']:g}")

@@ -174,8 +174,10 @@ def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: fl
     for c in claims:
         lines.append(f"| {c.figure} | {cell(c.claim)} | {c.measured:.4g} | {cell(c.expected)} | {cell(c.tolerance)} "
                      f"| {c.verdict} |")
-    passed = sum(c.passed for c in claims)
-    lines += ["", f"{passed} of {len(claims)} claims pass."]
+    claimed = [c for c in claims if not c.measurement]
+    lines += ["", f"{sum(c.passed for c in claimed)} of {len(claimed)} claims pass."]
+    if len(claimed) < len(claims):
+        lines[-1] += f" {len(claims) - len(claimed)} rows are measurements (MEASURED): stated, not claimed."
     text = "\n".join(lines) + "\n"
     Path(path).write_text(text, encoding="utf-8")
     return text

@@ -24,9 +24,12 @@ class Claim:
     tolerance : str
         How close the measurement must come.
     passed : bool
-        Whether it does.
+        Whether it does (always true for a measurement).
+    measurement : bool
+        A number the report states without claiming it: a hypothesis that failed its test is
+        kept in view this way, with what was stated in advance and what was found in its row.
     verdict : str
-        ``"PASS"`` or ``"FAIL"``.
+        ``"PASS"``, ``"FAIL"`` or ``"MEASURED"``.
 
     Examples
     --------
@@ -43,8 +46,11 @@ class Claim:
     expected: str
     tolerance: str
     passed: bool
+    measurement: bool = False
 
     @property
     def verdict(self) -> str:
-        """``"PASS"`` or ``"FAIL"``."""
+        """``"PASS"``, ``"FAIL"``, or ``"MEASURED"`` for a measurement."""
+        if self.measurement:
+            return "MEASURED"
         return "PASS" if self.passed else "FAIL"
