@@ -18,9 +18,9 @@ install: $(PY)
 	@echo "trigint: later ones seconds. cargo's progress follows."
 	$(PY) scripts/install_progress.py -e '.[test]'
 
-# The Rust tests build (debug profile) beside the package's release build: that build leaves a
-# core idle for minutes (one crate's front end at a time), which the other fills. The Python tests
-# then run on every core, a test file per worker (their module fixtures are built once).
+# The Rust tests build (debug profile) beside the package's release build, which leaves a core
+# idle while a single crate's front end runs. The Python tests then run on every core, a test
+# file per worker (their module fixtures are built once).
 test:
 	$(MAKE) --no-print-directory -j2 test-rust test-python
 

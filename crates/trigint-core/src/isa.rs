@@ -168,34 +168,52 @@ fn run_copy<K: Kernel>(k: &mut K, isa: Isa) -> K::Output {
     if K::WIDE {
         if K::AVX512 && isa == Isa::Avx512 {
             // SAFETY: `copies` lists a copy only where `allowed` found its features.
-            return unsafe { run_avx512(k) };
+            return unsafe { avx512_copy::run(k) };
         }
         if K::AVX2 && isa == Isa::Avx2 {
             // SAFETY: as above.
-            return unsafe { run_avx2(k) };
+            return unsafe { avx2_copy::run(k) };
         }
     }
     let _ = isa;
-    run_baseline(k)
+    baseline_copy::run(k)
 }
 
-#[inline(never)]
-fn run_baseline<K: Kernel>(k: &mut K) -> K::Output {
-    k.run_for(16)
+// One module per copy. rustc places a generic function's instances in the code-generation unit
+// of the module that defines it, and LLVM optimizes a unit on one thread: with the three copies
+// in one module, every kernel of every copy (most of the binding's machine code) was one unit,
+// and the release build ran on one core for minutes. A module each lets the copies build in
+// parallel; the code in them is the same.
+
+mod baseline_copy {
+    use super::Kernel;
+
+    #[inline(never)]
+    pub(super) fn run<K: Kernel>(k: &mut K) -> K::Output {
+        k.run_for(16)
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq")]
-#[inline(never)]
-unsafe fn run_avx512<K: Kernel>(k: &mut K) -> K::Output {
-    k.run_for(64)
+mod avx512_copy {
+    use super::Kernel;
+
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq")]
+    #[inline(never)]
+    pub(super) unsafe fn run<K: Kernel>(k: &mut K) -> K::Output {
+        k.run_for(64)
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-unsafe fn run_avx2<K: Kernel>(k: &mut K) -> K::Output {
-    k.run_for(32)
+mod avx2_copy {
+    use super::Kernel;
+
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(super) unsafe fn run<K: Kernel>(k: &mut K) -> K::Output {
+        k.run_for(32)
+    }
 }
 
 /// `f()` in the widest copy for this CPU: a loop over long vectors written as a closure (the
