@@ -50,8 +50,8 @@ pub trait Kernel {
     }
 }
 
-/// The instruction sets the kernels may use here: the CPU's, capped by the environment
-/// variable `TRIGINT_ISA` (`avx512`, `avx2` or `baseline`; read once), which lets one machine
+/// The instruction sets the kernels may use here: the CPU's (in an optimized build), capped by
+/// the environment variable `TRIGINT_ISA` (`avx512`, `avx2` or `baseline`; read once), which lets one machine
 /// time the copies another machine would run. Every copy gives the same bits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Allowed {
@@ -66,10 +66,12 @@ pub fn allowed() -> Allowed {
     static ALLOWED: std::sync::OnceLock<Allowed> = std::sync::OnceLock::new();
     *ALLOWED.get_or_init(|| {
         let has = crate::cpu::features();
-        let avx512 = ["avx512f", "avx512vl", "avx512dq"]
-            .iter()
-            .all(|f| has.contains(f));
-        let avx2 = has.contains(&"avx2");
+        // (a debug build has the baseline copy alone: see `WIDE_COPIES`)
+        let avx512 = WIDE_COPIES
+            && ["avx512f", "avx512vl", "avx512dq"]
+                .iter()
+                .all(|f| has.contains(f));
+        let avx2 = WIDE_COPIES && has.contains(&"avx2");
         let cap = std::env::var("TRIGINT_ISA").unwrap_or_default();
         match cap.trim().to_ascii_lowercase().as_str() {
             "avx2" => Allowed {
@@ -85,12 +87,19 @@ pub fn allowed() -> Allowed {
     })
 }
 
+/// Whether the AVX2 and AVX-512 copies are compiled at all: on x86-64, in optimized builds. A
+/// debug build (the Rust tests') compiles the baseline copy alone: the copies differ only in
+/// instruction encoding, their equality is tested on the release build
+/// (`tests/test_isa_copies.py`), and three debug copies of every kernel were most of the test
+/// build's time.
+const WIDE_COPIES: bool = cfg!(all(target_arch = "x86_64", not(debug_assertions)));
+
 /// The copies of `K` this CPU may run, widest first.
 fn copies<K: Kernel>() -> ([Isa; 3], usize) {
     let isa = allowed();
     let mut out = [Isa::Baseline; 3];
     let mut n = 0;
-    if K::WIDE && cfg!(target_arch = "x86_64") {
+    if K::WIDE && WIDE_COPIES {
         if K::AVX512 && isa.avx512 {
             out[n] = Isa::Avx512;
             n += 1;
@@ -164,7 +173,7 @@ fn run_measuring<K: Kernel>(
 fn run_copy<K: Kernel>(k: &mut K, isa: Isa) -> K::Output {
     // The conditions on the kernel's constants come first, so that a copy it does not want is
     // never compiled (the build-time cut of compiled programs, chains and waves: no AVX-512 copy).
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", not(debug_assertions)))]
     if K::WIDE {
         if K::AVX512 && isa == Isa::Avx512 {
             // SAFETY: `copies` lists a copy only where `allowed` found its features.
@@ -194,7 +203,7 @@ mod baseline_copy {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(debug_assertions)))]
 mod avx512_copy {
     use super::Kernel;
 
@@ -205,7 +214,7 @@ mod avx512_copy {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(debug_assertions)))]
 mod avx2_copy {
     use super::Kernel;
 
