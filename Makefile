@@ -29,7 +29,7 @@ test-rust:
 	env -u MAKEFLAGS -u MFLAGS cargo test -p trigint-core
 
 test-python: install
-	$(PY) -m pytest -n auto --dist loadfile tests --doctest-modules python/trigint -p no:cacheprovider
+	$(PY) -m pytest -n auto --dist loadfile tests --doctest-modules python/trigint -p no:cacheprovider --durations=12
 	$(PY) examples/fpu_energy.py $(VENV)/example-output
 
 lint: install

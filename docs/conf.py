@@ -79,7 +79,8 @@ def _reproduction_page() -> None:
     out = HERE / "_generated" / "reproduction"
     report = (out / "report.md").read_text(encoding="utf-8").splitlines()
     header = [line for line in report if line.startswith("| figure") or line.startswith("|---")]
-    summary = [line for line in report if line.startswith(("Run:", "Machine:")) or line.endswith("claims pass.")]
+    summary = [line for line in report if line.startswith(("Run:", "Machine:")) or line.endswith("claims pass.")
+               or "(MEASURED)" in line and not line.startswith("|")]
     titles = {f: trigint.experiments.load(f)["figure"]["title"] for f in trigint.experiments.FIGURES}
     parts = [
         "# Reproduction of the paper's figures\n",

@@ -177,7 +177,8 @@ def report(claims: list[Claim], timings: dict, path: Path, quick: bool, wall: fl
     claimed = [c for c in claims if not c.measurement]
     lines += ["", f"{sum(c.passed for c in claimed)} of {len(claimed)} claims pass."]
     if len(claimed) < len(claims):
-        lines[-1] += f" {len(claims) - len(claimed)} rows are measurements (MEASURED): stated, not claimed."
+        lines += ["", f"{len(claims) - len(claimed)} rows are measurements (MEASURED): numbers stated, not "
+                  "claimed; each row says why."]
     text = "\n".join(lines) + "\n"
     Path(path).write_text(text, encoding="utf-8")
     return text
