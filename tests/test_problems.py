@@ -89,6 +89,38 @@ def test_python_potential_matches_native(fpu):
     assert b.max_deviation["total"] == pytest.approx(a.max_deviation["total"], rel=1e-9)
 
 
+def _group_by_first_appearance(omega):
+    """The grouping written as a loop (the reference): a label per distinct non-zero frequency."""
+    distinct, out = [], []
+    for w in omega:
+        if w == 0.0:
+            out.append(0)
+            continue
+        if w not in distinct:
+            distinct.append(w)
+        out.append(distinct.index(w) + 1)
+    return out
+
+
+def test_blocks_grouped_by_first_appearance_at_any_size():
+    from trigint.problem import _check_blocks, _group
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):  # repeats, zeros (also -0.0) and distinct values in random order
+        omega = rng.choice([0.0, -0.0, 1.5, 2.0, 7.25, 3.0, 1e-300], size=int(rng.integers(1, 40)))
+        omega = np.abs(omega) if rng.random() < 0.5 else np.where(omega == 0, omega, np.abs(omega))
+        assert _group(omega).tolist() == _group_by_first_appearance(omega)
+        assert _check_blocks(_group(omega), omega).tolist() == _group(omega).tolist()
+    # 2·10⁵ coordinates, 10⁵ distinct frequencies, each twice: grouped and checked at once
+    omega = np.repeat(np.linspace(1.0, 2.0, 100_000), 2)[::-1].copy()
+    prob = ti.OscillatoryProblem(omega, ti.PolynomialPotential([1.0], [[2] + [0] * (omega.size - 1)]))
+    assert prob.blocks[:4].tolist() == [1, 1, 2, 2] and prob.blocks.max() == 100_000
+    blocks = prob.blocks.copy()
+    blocks[[5, 7]] = blocks[[7, 5]]  # 3 and 4 swapped across a pair: each block two frequencies
+    with pytest.raises(ValueError, match=r"blocks: block 3 holds the frequencies"):
+        ti.OscillatoryProblem(omega, ti.PolynomialPotential([1.0], [[2] + [0] * (omega.size - 1)]), blocks=blocks)
+
+
 def test_custom_blocks():
     omega = [0.0, 10.0, 10.0, 20.0]
     pot = ti.PolynomialPotential([1.0], [[2, 0, 0, 0]])

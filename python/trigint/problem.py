@@ -271,14 +271,15 @@ def _check_potential(potential, n: int) -> None:
 
 
 def _group(omega: np.ndarray) -> np.ndarray:
+    """Block labels: 0 for ω = 0, then 1, 2, … for the distinct non-zero frequencies in order of
+    first appearance (sorted once: a problem with 10⁵ distinct frequencies is grouped at once)."""
     blocks = np.zeros(omega.size, dtype=np.int64)
-    distinct: list[float] = []
-    for i, w in enumerate(omega):
-        if w == 0.0:
-            continue
-        if w not in distinct:
-            distinct.append(float(w))
-        blocks[i] = distinct.index(w) + 1
+    fast = np.flatnonzero(omega != 0.0)
+    if fast.size:
+        _, first, inverse = np.unique(omega[fast], return_index=True, return_inverse=True)
+        rank = np.empty(first.size, dtype=np.int64)
+        rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+        blocks[fast] = rank[inverse.reshape(-1)] + 1
     return blocks
 
 
@@ -292,12 +293,16 @@ def _check_blocks(blocks, omega: np.ndarray) -> np.ndarray:
     used = np.unique(b[b > 0])
     if used.size and not np.array_equal(used, np.arange(1, used.size + 1)):
         raise ValueError(f"blocks: oscillatory labels must be 1, 2, ..., l with none skipped, got {used.tolist()}")
-    for j in used:
+    # one frequency per block: sorted by label, neighbours with one label must have one frequency
+    fast = np.flatnonzero(b > 0)
+    order = fast[np.argsort(b[fast], kind="stable")]
+    mixed = (b[order][1:] == b[order][:-1]) & (omega[order][1:] != omega[order][:-1])
+    if mixed.any():
+        j = int(b[order][1:][mixed][0])  # the lowest such label
         values = np.unique(omega[b == j])
-        if values.size > 1:
-            raise ValueError(
-                f"blocks: block {int(j)} holds the frequencies {values.tolist()}; a block is a group of coordinates "
-                "of one frequency (paper §2.1: its energy I_j and its frequency omega_j enter the theory). Give "
-                "each frequency its own label (one frequency may be split over several blocks)"
-            )
+        raise ValueError(
+            f"blocks: block {j} holds the frequencies {values.tolist()}; a block is a group of coordinates "
+            "of one frequency (paper §2.1: its energy I_j and its frequency omega_j enter the theory). Give "
+            "each frequency its own label (one frequency may be split over several blocks)"
+        )
     return b
