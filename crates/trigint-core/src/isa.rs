@@ -51,8 +51,8 @@ pub trait Kernel {
 }
 
 /// The instruction sets the kernels may use here: the CPU's (in an optimized build), capped by
-/// the environment variable `TRIGINT_ISA` (`avx512`, `avx2` or `baseline`; read once), which lets one machine
-/// time the copies another machine would run. Every copy gives the same bits.
+/// the environment variable `TRIGINT_ISA` (`avx512`, `avx2` or `baseline`; read once), which
+/// lets one machine time the copies another machine would run. Every copy gives the same bits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Allowed {
     pub avx512: bool,
