@@ -94,17 +94,18 @@ pub fn allowed() -> Allowed {
 /// build's time.
 const WIDE_COPIES: bool = cfg!(all(target_arch = "x86_64", not(debug_assertions)));
 
-/// The copies of `K` this CPU may run, widest first.
-fn copies<K: Kernel>() -> ([Isa; 3], usize) {
+/// The copies of a kernel (with constants `WIDE`, `AVX512`, `AVX2`) this CPU may run, widest
+/// first. Not generic: one function for every kernel.
+fn copies(wide: bool, avx512: bool, avx2: bool) -> ([Isa; 3], usize) {
     let isa = allowed();
     let mut out = [Isa::Baseline; 3];
     let mut n = 0;
-    if K::WIDE && WIDE_COPIES {
-        if K::AVX512 && isa.avx512 {
+    if wide && WIDE_COPIES {
+        if avx512 && isa.avx512 {
             out[n] = Isa::Avx512;
             n += 1;
         }
-        if K::AVX2 && isa.avx2 {
+        if avx2 && isa.avx2 {
             out[n] = Isa::Avx2;
             n += 1;
         }
@@ -116,7 +117,7 @@ fn copies<K: Kernel>() -> ([Isa; 3], usize) {
 /// `k.run()` in the copy for this CPU: the planner's choice for a stepping loop, else the widest.
 #[inline(always)]
 pub fn run<K: Kernel>(k: &mut K) -> K::Output {
-    let (all, n) = copies::<K>();
+    let (all, n) = copies(K::WIDE, K::AVX512, K::AVX2);
     // Where there is a VEX-encoded copy (AVX2, AVX-512), the planner chooses among those alone.
     // The baseline copy's legacy-SSE instructions ran the one-trajectory tangent loop at 29-31
     // or at 53-60 ns per FPU step between processes on an Intel Xeon (model 207), the same
@@ -148,7 +149,7 @@ fn run_measuring<K: Kernel>(
 ) -> K::Output {
     let mut n = first;
     loop {
-        match plan::next::<K>(id, copies) {
+        match plan::next(id, copies) {
             plan::Next::Use(isa) => {
                 k.set_steps(n, end);
                 return run_copy(k, isa);

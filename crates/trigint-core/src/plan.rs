@@ -106,26 +106,49 @@ fn note(text: &str) {
     eprintln!("trigint: {text}");
 }
 
-/// A loop to plan: its kernel type (the address of its type name, unique per compiled type) and
-/// its size class.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+/// A loop to plan: its kernel type and its size class. Compared by the address of the type's
+/// name (unique per compiled type), so that a lookup never compares the long name itself.
+///
+/// The type enters only here: everything after `Id::of` is one function for every kernel, not an
+/// instance per kernel type (those were a seventh of the binding's code to optimize).
+#[derive(Debug, Clone, Copy)]
 pub struct Id {
-    type_name: usize,
+    type_name: &'static str,
     size_class: u32,
 }
 
 impl Id {
+    #[inline(always)]
     pub fn of<K: ?Sized>(n_coordinates: usize) -> Id {
         Id {
-            type_name: std::any::type_name::<K>().as_ptr() as usize,
+            type_name: std::any::type_name::<K>(),
             size_class: usize::BITS - n_coordinates.saturating_sub(1).leading_zeros(),
         }
+    }
+
+    fn address(&self) -> usize {
+        self.type_name.as_ptr() as usize
+    }
+}
+
+impl PartialEq for Id {
+    fn eq(&self, other: &Id) -> bool {
+        self.address() == other.address() && self.size_class == other.size_class
+    }
+}
+
+impl Eq for Id {}
+
+impl std::hash::Hash for Id {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.address().hash(state);
+        self.size_class.hash(state);
     }
 }
 
 /// The key of a loop in the cache: its type without module paths, and the size class.
-fn key_text<K: ?Sized>(id: Id) -> String {
-    let full = std::any::type_name::<K>();
+fn key_text(id: Id) -> String {
+    let full = id.type_name;
     let mut short = String::with_capacity(full.len());
     let mut word = String::new();
     let mut chars = full.chars().peekable();
@@ -212,12 +235,12 @@ pub fn chosen(id: Id) -> Option<Isa> {
     Some(isa)
 }
 
-/// The next piece of loop `K` (`id`), given the copies this CPU may run.
-pub fn next<K: ?Sized>(id: Id, copies: &[Isa]) -> Next {
+/// The next piece of loop `id`, given the copies this CPU may run.
+pub fn next(id: Id, copies: &[Isa]) -> Next {
     let mut guard = lock();
     let p = &mut *guard;
     let entry = p.entries.entry(id).or_insert_with(|| {
-        let key = key_text::<K>(id);
+        let key = key_text(id);
         let chosen = p
             .known
             .get(&key)
@@ -447,7 +470,7 @@ mod tests {
         let id = Id::of::<Loop<Vec<f64>>>(65536);
         assert_eq!(id.size_class, 16);
         assert_eq!(Id::of::<u8>(65537).size_class, 17);
-        assert_eq!(key_text::<Loop<Vec<f64>>>(id), "Loop<Vec<f64>> n<=2^16");
+        assert_eq!(key_text(id), "Loop<Vec<f64>> n<=2^16");
     }
 
     #[test]
@@ -470,7 +493,7 @@ mod tests {
         let copies = [Isa::Avx2, Isa::Baseline];
         // avx2 takes 10 ns a step, the baseline 5: the baseline is chosen.
         for _ in 0..100 {
-            match next::<Probe>(id, &copies) {
+            match next(id, &copies) {
                 Next::Use(isa) => {
                     assert_eq!(isa, Isa::Baseline);
                     assert_eq!(chosen(id), Some(Isa::Baseline));
