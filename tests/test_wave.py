@@ -59,7 +59,7 @@ def test_the_fourier_coordinates_are_the_normalized_coefficients(shape):
     q = prob.fourier(u)
     # mean_x u² = |q|², the map is invertible, and the grid comes back
     assert np.isclose(np.mean(u**2), np.sum(q**2), rtol=1e-13)
-    back = prob.fourier_map.to_user(q[None, :])[0]
+    back = prob.coordinate_map.to_user(q[None, :])[0]
     assert np.max(np.abs(back - u.reshape(-1))) < 1e-13
     # each block's energy with p = 0 is ω_j² (|û_j|² + |û_−j|²)/2 (numpy's FFT, independently)
     uh = np.fft.fftn(u) / u.size
@@ -74,7 +74,9 @@ def test_the_fourier_coordinates_are_the_normalized_coefficients(shape):
 
 def test_the_grid_map_permutes_in_the_core_as_numpy_would_and_refuses_a_bad_order():
     prob = ti.problems.wave((8, 6), rho=1.0)
-    grid, order = prob.fourier_grid, prob.fourier_map.order
+    cmap = prob.coordinate_map
+    grid, order = prob.fourier_grid, cmap.__reduce__()[1][1]  # (the grid and the order it was made of)
+    assert cmap.kind == "fourier" and cmap.dim == 48
     rng = np.random.default_rng(3)
     q, u = rng.standard_normal((3, 48)), rng.standard_normal((2, 48))
     canonical = np.empty_like(q)
@@ -82,14 +84,21 @@ def test_the_grid_map_permutes_in_the_core_as_numpy_would_and_refuses_a_bad_orde
     # the permutation is data movement only: the same bits as permuting in NumPy
     assert np.array_equal(grid.to_grid(q, order), grid.to_grid(canonical))
     assert np.array_equal(grid.from_grid(u, order), grid.from_grid(u)[:, order])
-    # the problem's map keeps the order checked once (and through a pickle)
-    ordered = prob.fourier_map.grid
+    # the problem's coordinate map (the core's) keeps the order checked once (and through a
+    # pickle), on states of any leading shape
+    ordered = grid.ordered(order)
+    for g in (cmap, pickle.loads(pickle.dumps(cmap))):
+        assert np.array_equal(g.to_user(q), grid.to_grid(q, order))
+        assert np.array_equal(g.to_core(u), grid.from_grid(u, order))
+        assert np.array_equal(g.to_user(q.reshape(3, 1, 48)), grid.to_grid(q, order).reshape(3, 1, 48))
     for g in (ordered, pickle.loads(pickle.dumps(ordered))):
         assert np.array_equal(g.to_grid(q), grid.to_grid(q, order))
         assert np.array_equal(g.from_grid(u), grid.from_grid(u, order))
     assert np.array_equal(pickle.loads(pickle.dumps(grid)).to_grid(canonical), grid.to_grid(canonical))
-    # a non-contiguous input gives what its contiguous copy gives
+    # a non-contiguous or column-major input gives what its contiguous copy gives
     assert np.array_equal(grid.to_grid(q[:, ::-1], order), grid.to_grid(np.ascontiguousarray(q[:, ::-1]), order))
+    assert np.array_equal(grid.to_grid(np.asfortranarray(q), order), grid.to_grid(q, order))
+    assert np.array_equal(cmap.to_user(np.asfortranarray(q)), cmap.to_user(q))
     for bad, match in [(np.zeros(48, dtype=np.int64), "repeated"), (np.arange(47), "47 entries"),
                        (np.arange(48) + 1, "out of range")]:
         with pytest.raises(ValueError, match=match):

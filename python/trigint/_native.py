@@ -55,44 +55,36 @@ def _channel_index(n_blocks: int, n_axes: int) -> tuple[tuple[str, ...], dict[st
 
 @dataclass(frozen=True)
 class CoreLayout:
-    """A problem's arrangement in the core's coordinates, with the map to and from them: a
-    permutation (diagonal Ω) or the orthogonal modal basis Q (stiffness matrix)."""
+    """A problem's arrangement in the core's coordinates and the one map to and from them
+    (``_core.CoordinateMap``: the identity, a permutation for a diagonal Ω, the modal basis Q of
+    a stiffness matrix, or a wave equation's Fourier coordinates), applied by the core."""
 
     #: the arrangement as the core takes it, converted once (``_core.Layout``; ``.spec`` is its
     #: description)
     spec: object
-    #: core coordinate k is user coordinate perm[k]
+    #: ``_core.CoordinateMap``: user coordinates → the core's and back
+    map: object
+    #: core coordinate k is user coordinate perm[k] (the identity unless the map permutes)
     perm: np.ndarray
     #: user coordinate i is core coordinate inverse[i]
     inverse: np.ndarray
-    identity: bool
-    #: Q, with q = Q x (None for a diagonal Ω)
-    basis: np.ndarray | None = None
-    #: a map of the problem's own (``to_core``/``to_user``), e.g. grid values ⇄ Fourier
-    #: coordinates of a wave equation; the core's coordinates are then the map's, in order
-    transform: object | None = None
+
+    @property
+    def identity(self) -> bool:
+        return self.map.is_identity
 
     def to_core(self, x: np.ndarray) -> np.ndarray:
         """User coordinates → core coordinates along the last axis."""
-        if self.transform is not None:
-            return self.transform.to_core(x)
-        if self.basis is not None:
-            return change_basis(x, self.basis)
-        return x if self.identity else np.ascontiguousarray(x[..., self.perm])
+        return self.map.to_core(np.asarray(x, dtype=float))
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
         """Core coordinates → user coordinates along the last axis."""
-        if self.transform is not None:
-            return self.transform.to_user(x)
-        if self.basis is not None:
-            return change_basis(x, np.ascontiguousarray(self.basis.T))
-        return x if self.identity else np.ascontiguousarray(x[..., self.inverse])
+        return self.map.to_user(np.asarray(x, dtype=float))
 
     def rows_to_core(self, x: np.ndarray) -> np.ndarray:
-        """Per-coordinate numbers (a method's rows) in the core's order: the modal
-        coordinates already are."""
-        modal = self.basis is not None or self.transform is not None
-        return np.ascontiguousarray(x) if modal else self.to_core(x)
+        """Per-coordinate numbers (a method's rows, listed like the problem's frequencies) in
+        the core's order: only a permutation moves them."""
+        return self.map.numbers_to_core(np.asarray(x, dtype=float))
 
 
 def evaluator(spec: dict):
@@ -136,14 +128,6 @@ def problem_potential(problem, lay: CoreLayout):
     return _built(problem, key, lambda: potential_spec(problem.potential, lay))
 
 
-def change_basis(x: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """x · m along the last axis, each row summed in a fixed order (the core's), so that a
-    state has the same bits alone and in a batch of any size."""
-    x = np.asarray(x, dtype=float)
-    flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
-    return _core.change_basis(flat, np.ascontiguousarray(m, dtype=float)).reshape(*x.shape[:-1], m.shape[1])
-
-
 def core_layout(problem) -> CoreLayout:
     """The problem's arrangement in the core's coordinates, made once and kept on the problem
     (a problem's frequencies and blocks never change; building it for a 2¹⁶-point wave took
@@ -170,10 +154,15 @@ def _core_layout(problem) -> CoreLayout:
         # a bilinear invariant in the core's coordinates (a wave equation's momentum), or None
         "pair_forms": problem.pair_forms,
     })
-    # a stiffness matrix's modal coordinates come ordered (slow first, block by block): perm is
-    # the identity and Q the whole map
-    return CoreLayout(spec, perm, inverse, bool(np.all(perm == np.arange(perm.size))), problem.basis,
-                      problem.coordinate_map)
+    # a stiffness matrix's modal coordinates and a wave equation's Fourier coordinates come
+    # ordered (slow first, block by block): the map is the basis or the problem's own
+    if problem.coordinate_map is not None:
+        cmap = problem.coordinate_map
+    elif problem.basis is not None:
+        cmap = _core.CoordinateMap.modal(np.ascontiguousarray(problem.basis, dtype=float))
+    else:
+        cmap = _core.CoordinateMap.permuted(perm.astype(np.int64))
+    return CoreLayout(spec, cmap, perm, inverse)
 
 
 def method_rows(co, fast: np.ndarray) -> dict:
@@ -222,100 +211,52 @@ def core_method(problem, co, lay: CoreLayout):
 
 
 def potential_spec(potential, lay: CoreLayout) -> dict:
-    """The potential's description, with its inputs taken from the core's coordinates."""
-    spec = potential.describe(lay.perm.size)
-    if lay.basis is not None:
-        return _modal_spec(spec, lay.basis, potential)
-    return spec if lay.identity else _permute_spec(spec, lay, potential)
+    """The potential's description, with its inputs taken from the core's coordinates: each
+    input map M of the user's coordinates composed by the core into M∘(to_user), a Python
+    callable given the user's coordinates. A wave equation's potentials are written in its
+    Fourier coordinates (the core's), and a potential whose own coordinates are the modal ones
+    (Q is the T of its `own_coordinates()`) runs with no map."""
+    cmap = lay.map
+    spec = potential.describe(cmap.dim)
+    if cmap.kind in ("identity", "fourier"):
+        return spec
+    if cmap.kind == "modal":
+        own = potential.own_coordinates()
+        basis = cmap.basis
+        if own is not None and own[0].shape == basis.shape and np.array_equal(own[0], basis):
+            return own[1]
+    return _mapped_spec(spec, lay, potential)
 
 
-def _modal_spec(spec: dict, basis: np.ndarray, potential) -> dict:
-    """U(Qx) for U(q): Q composed into the potential's input maps (a program's, each chain
-    term's, the FPU's), or Python callables given q = Qx and returning Qᵀ∇U. A potential
-    whose own coordinates are the modal ones (Q is the T of its `own_coordinates()`) runs
-    with no map."""
-    own = potential.own_coordinates()
-    if own is not None and own[0].shape == basis.shape and np.array_equal(own[0], basis):
-        return own[1]
-    kind = spec["kind"]
+def _mapped_spec(spec: dict, lay: CoreLayout, potential) -> dict:
+    cmap, kind = lay.map, spec["kind"]
+    if kind in ("fpu", "program") and spec.get("map") is None and cmap.kind == "permuted":
+        # no map to rename: an FPU chain runs as its program, a program reads its inputs renamed
+        if kind == "fpu":
+            return _mapped_spec(potential.program_description(), lay, potential)
+        return {**spec, "ops": [("input", int(lay.inverse[op[1]])) if op[0] == "input" else op for op in spec["ops"]]}
     if kind in ("fpu", "program"):
-        return {**spec, "map": _compose(spec.get("map"), spec["m"] * 2 if kind == "fpu" else spec["n"], basis)}
+        return {**spec, "map": cmap.compose(spec.get("map"), spec["m"] * 2 if kind == "fpu" else spec["n"])}
     if kind == "chain":
-        return {**spec, "terms": [{**t, "map": _compose(t["map"], t["map"]["rows"], basis)} for t in spec["terms"]]}
+        return {**spec, "terms": [{**t, "map": cmap.compose(t["map"], t["map"]["rows"])} for t in spec["terms"]]}
     if kind == "python":
-        value, gradient = spec["value"], spec["gradient"]
-
-        back = np.ascontiguousarray(basis.T)
-
-        # change_basis, not BLAS: a state gets the same q = Qx alone and in a block of lanes
-        def value_modal(x):
-            return value(change_basis(x, back))
-
-        def gradient_modal(x):
-            return change_basis(np.asarray(gradient(change_basis(x, back)), dtype=float), basis)
-
-        hvp = spec.get("hessian_vector")
-
-        def hessian_vector_modal(x, v):
-            return change_basis(np.asarray(hvp(change_basis(x, back), change_basis(v, back)), dtype=float), basis)
-
-        return {**spec, "value": value_modal, "gradient": gradient_modal,
-                "hessian_vector": None if hvp is None else hessian_vector_modal}
-    raise ValueError(_unmapped(kind, "in modal coordinates (a stiffness matrix)"))
-
-
-def _compose(m: dict | None, rows: int, basis: np.ndarray) -> dict:
-    """The sparse map M Q (M the identity when None) in the core's CSR form. Entries below
-    1e-15 of their row's largest are the product's rounding noise (exact zeros of a sparse Q
-    combined with ±1/√2 entries) and are dropped."""
-    from scipy.sparse import csr_matrix
-
-    n = basis.shape[0]
-    left = (csr_matrix(np.eye(rows, n)) if m is None else
-            csr_matrix((np.asarray(m["vals"], dtype=float), m["idx"], m["ptr"]), shape=(m["rows"], m["cols"])))
-    dense = np.asarray(left @ basis)
-    big = np.max(np.abs(dense), axis=1, keepdims=True)
-    dense[np.abs(dense) <= 1e-15 * big] = 0.0
-    out = csr_matrix(dense)
-    out.sort_indices()
-    return {"rows": int(out.shape[0]), "cols": n, "ptr": [int(x) for x in out.indptr],
-            "idx": [int(x) for x in out.indices], "vals": np.asarray(out.data, dtype=float)}
-
-
-def _permute_spec(spec: dict, lay: CoreLayout, potential) -> dict:
-    kind = spec["kind"]
-    inv = lay.inverse
-    if kind == "fpu":
-        if spec.get("map") is not None:
-            return {**spec, "map": _permute_map(spec["map"], inv)}
-        return _permute_spec(potential.program_description(), lay, potential)
-    if kind == "program":
-        out = dict(spec)
-        if spec.get("map") is not None:
-            out["map"] = _permute_map(spec["map"], inv)
-        else:
-            out["ops"] = [("input", int(inv[op[1]])) if op[0] == "input" else op for op in spec["ops"]]
-        return out
-    if kind == "chain":
-        return {**spec, "terms": [{**t, "map": _permute_map(t["map"], inv)} for t in spec["terms"]]}
-    if kind == "python":
-        perm, inverse = lay.perm, lay.inverse
-        value, gradient = spec["value"], spec["gradient"]
+        # the maps are orthogonal: a force goes back as a state does
+        value, gradient, hvp = spec["value"], spec["gradient"], spec.get("hessian_vector")
 
         def value_core(x):
-            return value(x[..., inverse])
+            return value(lay.to_user(x))
 
         def gradient_core(x):
-            return np.asarray(gradient(x[..., inverse]), dtype=float)[..., perm]
-
-        hvp = spec.get("hessian_vector")
+            return lay.to_core(gradient(lay.to_user(x)))
 
         def hessian_vector_core(x, v):
-            return np.asarray(hvp(x[..., inverse], v[..., inverse]), dtype=float)[..., perm]
+            return lay.to_core(hvp(lay.to_user(x), lay.to_user(v)))
 
         return {**spec, "value": value_core, "gradient": gradient_core,
                 "hessian_vector": None if hvp is None else hessian_vector_core}
-    raise ValueError(_unmapped(kind, "with its coordinates reordered (slow ones first, then block by block)"))
+    where = ("in modal coordinates (a stiffness matrix)" if cmap.kind == "modal" else
+             "with its coordinates reordered (slow ones first, then block by block)")
+    raise ValueError(_unmapped(kind, where))
 
 
 def _unmapped(kind: str, where: str) -> str:
@@ -323,11 +264,6 @@ def _unmapped(kind: str, where: str) -> str:
     return (f"a potential of kind {kind!r} reads no coordinate map, so it runs only on a problem whose core "
             f"coordinates are the user's; this problem runs {where}. Kinds that take a map: fpu, program, "
             "chain, python")
-
-
-def _permute_map(m: dict, inv: np.ndarray) -> dict:
-    """A linear map of user coordinates as one of core coordinates: columns renamed."""
-    return {**m, "idx": [int(inv[j]) for j in m["idx"]]}
 
 
 def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, callback):

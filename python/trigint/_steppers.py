@@ -45,7 +45,7 @@ class Recursion:
         the layout's description, and the map back to the user's coordinates (None if the
         core's coordinates are the user's)."""
         lay = _native.core_layout(problem)
-        order = None if lay.identity and lay.basis is None and lay.transform is None else lay
+        order = None if lay.identity else lay
         return _native.problem_potential(problem, lay), lay.spec, order
 
     def run_chunk(self, potential_spec, layout_spec: dict, order, rows: dict, save_every, track: bool,
@@ -106,7 +106,7 @@ class Recursion:
         lay = _native.core_layout(problem)
         if potential is None:
             potential = _native.problem_potential(problem, lay)
-        order = None if lay.identity and lay.basis is None and lay.transform is None else lay
+        order = None if lay.identity else lay
         return _recursion_tangent(potential, lay.spec, order, _native.core_method(problem, co, lay),
                                   q0, p0, dq0, dp0, n_steps, renormalize_every, sample_every, every, callback)
 
@@ -231,7 +231,7 @@ def _metric(order, n: int) -> np.ndarray:
     """The core's metric that reproduces the user's Euclidean norm: the maps are orthogonal (a
     permutation, a modal basis) or the Fourier map, SᵀS = N·I."""
     scale = 1.0
-    if order is not None and order.transform is not None:
+    if order is not None and order.map.kind == "fourier":
         unit = np.zeros((1, n))
         unit[0, 0] = 1.0
         scale = float(np.sum(order.to_user(unit) ** 2))

@@ -22,30 +22,11 @@ import numpy as np
 import xarray as xr
 
 from . import _check, _core, _tape
-from ._steppers import RECURSION
 from .potentials import Potential, PythonPotential
 from .problem import OscillatoryProblem
 
 #: modes kept in ``sol.energies["action"]`` by default: all of them up to this many
 ALL_MODES_UP_TO = 256
-
-
-class FourierMap:
-    """Grid values (N per state, row-major over the grid) ⇄ the problem's Fourier coordinates
-    (the core's order): ``to_core`` is q = Sᵀu/N, ``to_user`` is u = S q."""
-
-    def __init__(self, grid, order: np.ndarray):
-        self.order = np.ascontiguousarray(order, dtype=np.int64)
-        # the grid's plans with the order checked once (not at every call)
-        self.grid = grid.ordered(self.order)
-
-    def to_core(self, x: np.ndarray) -> np.ndarray:
-        rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
-        return self.grid.from_grid(rows).reshape(x.shape)
-
-    def to_user(self, x: np.ndarray) -> np.ndarray:
-        rows = np.asarray(x, dtype=float).reshape(-1, x.shape[-1])
-        return self.grid.to_grid(rows).reshape(x.shape)
 
 
 class WavePotential(Potential):
@@ -64,11 +45,12 @@ class WavePotential(Potential):
         return f"WavePotential(V(u) = {self.text}, grid {self.shape})"
 
 
-def _python_potential(v: Callable, dv: Callable, fmap: FourierMap) -> PythonPotential:
-    """U and ∇U = (1/N) Sᵀ V'(u) for callables V, V' on grid arrays, through the core's FFTs."""
+def _python_potential(v: Callable, dv: Callable, fmap) -> PythonPotential:
+    """U and ∇U = (1/N) Sᵀ V'(u) for callables V, V' on grid arrays, through the core's FFTs
+    (`fmap` the problem's ``_core.CoordinateMap``)."""
 
     def grid_rows(q):
-        return fmap.to_user(np.ascontiguousarray(q))
+        return fmap.to_user(np.asarray(q, dtype=float))
 
     def value(q):
         u = grid_rows(q)
@@ -156,30 +138,25 @@ class WaveProblem(OscillatoryProblem):
         label[slow] = 0
         blocks_canonical = label[mode_of]
         order = np.lexsort((np.arange(j.shape[0]), blocks_canonical))
-        self.fourier_map = FourierMap(self.fourier_grid, order)
-        self.coordinate_map = self.fourier_map
-        self.stiffness = self.basis = self.frequencies_found = None
-        self.path = "diagonal"
-        self.stepper = RECURSION
-        self.omega = omega[order]
-        self.blocks = blocks_canonical[order]
-        self._n = self.omega.size
-        self.omega.setflags(write=False)
-        self.blocks.setflags(write=False)
+        # the grid values ⇄ Fourier coordinates in the core's order, one map for the states,
+        # the samples and a Python V (the grid's plans shared)
+        fourier = _core.CoordinateMap.fourier(self.fourier_grid, order.astype(np.int64))
+        self._wavevectors, self._parts = j[order], parts[order]
+        self.n_axes = len(shape)
+        omega, blocks = omega[order], blocks_canonical[order]
+        self.linear = False
+        super().__init__(omega, self._potential(potential, params, variable, order, fourier), blocks=blocks)
+        self.coordinate_map = fourier
         starts = np.flatnonzero(np.r_[True, self.blocks[1:] != self.blocks[:-1]])
         starts = starts[self.blocks[starts] > 0]
         self.modes = j[order][starts]
         self.mode_frequencies = self.omega[starts]
-        self._parts = parts[order]
-        self._wavevectors = j[order]
-        self.n_axes = len(shape)
         self.pair_forms = self._momentum_form()
-        self.potential = self._potential(potential, params, variable, order)
         self.action_modes = self._action_modes(modes)
 
-    def _potential(self, potential, params, variable, order):
+    def _potential(self, potential, params, variable, order, fourier):
         if isinstance(potential, tuple) and len(potential) == 2 and all(callable(f) for f in potential):
-            return _python_potential(potential[0], potential[1], self.fourier_map)
+            return _python_potential(potential[0], potential[1], fourier)
         if callable(potential):
             raise TypeError("potential: a Python V needs its derivative too: give (V, dV), two callables on grid "
                             "arrays, or V as a string or SymPy expression in u")
@@ -269,7 +246,7 @@ class WaveProblem(OscillatoryProblem):
         u : array, shape (…, N) or (…,) + `shape`
             Grid values.
         """
-        return self.fourier_map.to_core(np.asarray(self.as_state(u, "u"), dtype=float))
+        return self.coordinate_map.to_core(np.asarray(self.as_state(u, "u"), dtype=float))
 
     def momentum(self, u, v) -> np.ndarray:
         """K = −mean_x(v ∇u) of grid values u, v of shape (…, N) or (…,) + `shape`: one component

@@ -13,6 +13,7 @@
 pub mod basis;
 pub mod channels;
 pub mod coefficients;
+pub mod coordinates;
 pub mod cpu;
 pub mod description;
 pub mod energy;

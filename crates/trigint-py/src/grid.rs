@@ -18,7 +18,7 @@ use crate::potential::to_2d;
 /// coordinate k of q is the grid's coordinate order[k]; checked once, here).
 #[pyclass(frozen, module = "trigint._core")]
 pub struct FourierGrid {
-    grid: Arc<Spectral>,
+    pub(crate) grid: Arc<Spectral>,
     order: Option<Arc<Vec<usize>>>,
     /// A workspace kept for the next call (a call takes it; calls that overlap make their own).
     kept: Mutex<Option<SpectralWorkspace>>,
@@ -38,9 +38,10 @@ impl FourierGrid {
                 x.shape()[1]
             )));
         }
+        // (`as_slice` also takes a column-major array, in its memory order: rows are wanted)
         let data = match x.as_slice() {
-            Ok(s) => Cow::Borrowed(s),
-            Err(_) => Cow::Owned(x.as_array().iter().copied().collect()),
+            Ok(s) if x.is_c_contiguous() => Cow::Borrowed(s),
+            _ => Cow::Owned(x.as_array().iter().copied().collect()),
         };
         Ok((x.shape()[0], data))
     }

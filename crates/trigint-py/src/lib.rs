@@ -2,6 +2,7 @@
 //! around the core, and maps core errors to Python exceptions. No numerics live here.
 
 mod convert;
+mod coordinates;
 mod grid;
 mod handle;
 mod krylov;
@@ -240,28 +241,6 @@ fn state_energies<'py>(
 pub(crate) type ValuesAndForces<'py> =
     (Bound<'py, PyArray1<f64>>, Bound<'py, numpy::PyArray2<f64>>);
 
-/// change_basis(x, m) -> x · m for row-major x (rows, k) and m (k, n), each row summed in a
-/// fixed order: the same bits for a state alone or in a batch
-#[pyfunction]
-fn change_basis<'py>(
-    py: Python<'py>,
-    x: PyReadonlyArray2<f64>,
-    m: PyReadonlyArray2<f64>,
-) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
-    let (rows, k) = (x.shape()[0], x.shape()[1]);
-    let (k2, n) = (m.shape()[0], m.shape()[1]);
-    if k != k2 {
-        return Err(PyValueError::new_err(format!(
-            "change_basis: {rows} x {k} times {k2} x {n} does not match"
-        )));
-    }
-    let xs: Vec<f64> = x.as_array().iter().copied().collect();
-    let ms: Vec<f64> = m.as_array().iter().copied().collect();
-    let mut y = vec![0.0; rows * n];
-    py.detach(|| trigint_core::basis::rows_times(&xs, &ms, k, n, &mut y));
-    to_2d(py, y, rows, n)
-}
-
 /// channels(n_blocks, n_axes=0) -> the energy channel names in output order (n_axes: the
 /// per-axis channels of a pair form, such as a wave equation's momentum)
 #[pyfunction]
@@ -313,13 +292,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
     m.add_function(wrap_pyfunction!(tangent::tangent_batch, m)?)?;
-    m.add_function(wrap_pyfunction!(change_basis, m)?)?;
     m.add_function(wrap_pyfunction!(state_energies, m)?)?;
     m.add_class::<handle::Handle>()?;
     m.add_class::<handle::LayoutHandle>()?;
     m.add_class::<handle::MethodHandle>()?;
     m.add_class::<RunResult>()?;
     m.add_class::<grid::FourierGrid>()?;
+    m.add_class::<coordinates::CoordinateMap>()?;
     m.add_function(wrap_pyfunction!(channels, m)?)?;
     m.add_function(wrap_pyfunction!(kernel_config, m)?)?;
     m.add_function(wrap_pyfunction!(krylov::integrate_krylov, m)?)?;

@@ -1,0 +1,232 @@
+//! `_core.CoordinateMap`: the core's map between a problem's user coordinates and its own
+//! (`trigint_core::coordinates`), applied to states in and out and composed with potentials'
+//! input maps.
+
+use std::sync::Arc;
+
+use numpy::{
+    PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use trigint_core::coordinates::{self, SparseMap};
+
+use crate::convert::item;
+use crate::grid::FourierGrid;
+
+fn value_error(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// CoordinateMap: how the core's coordinates are made from the user's. Built by
+/// `CoordinateMap.identity(n)`, `.permuted(perm)` (core coordinate k is user coordinate
+/// perm[k]), `.modal(basis)` (q = Q x) or `.fourier(grid, order)` (q = Sᵀu / N, in `order`).
+#[pyclass(frozen, module = "trigint._core")]
+pub struct CoordinateMap {
+    map: Arc<coordinates::CoordinateMap>,
+    /// What rebuilds it (for pickling): the constructor's name and its argument.
+    made_by: (&'static str, Py<PyAny>),
+}
+
+impl CoordinateMap {
+    fn made(
+        py: Python<'_>,
+        map: coordinates::CoordinateMap,
+        how: &'static str,
+        arg: Bound<'_, PyAny>,
+    ) -> Self {
+        let _ = py;
+        CoordinateMap {
+            map: Arc::new(map),
+            made_by: (how, arg.unbind()),
+        }
+    }
+
+    /// `f(rows, out)` over the rows of `x` (last axis: the map's coordinates), same shape out.
+    fn apply<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArrayDyn<'py, f64>,
+        f: fn(&coordinates::CoordinateMap, &[f64], &mut [f64]),
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.map.dim();
+        let shape = x.shape().to_vec();
+        if shape.last() != Some(&n) {
+            return Err(PyValueError::new_err(format!(
+                "expected states of {n} coordinates along the last axis, got shape {shape:?}"
+            )));
+        }
+        // (`as_slice` also takes a column-major array, in its memory order: rows are wanted)
+        let data: Vec<f64> = match x.as_slice() {
+            Ok(s) if x.is_c_contiguous() => s.to_vec(),
+            _ => x.as_array().iter().copied().collect(),
+        };
+        let mut out = vec![0.0; data.len()];
+        let map = Arc::clone(&self.map);
+        py.detach(|| f(&map, &data, &mut out));
+        PyArray1::from_vec(py, out).reshape(shape)
+    }
+}
+
+#[pymethods]
+impl CoordinateMap {
+    #[staticmethod]
+    fn identity(py: Python<'_>, n: usize) -> PyResult<Self> {
+        let arg = n.into_pyobject(py)?.into_any();
+        Ok(Self::made(
+            py,
+            coordinates::CoordinateMap::Identity { n },
+            "identity",
+            arg,
+        ))
+    }
+
+    #[staticmethod]
+    fn permuted<'py>(py: Python<'py>, perm: PyReadonlyArray1<'py, i64>) -> PyResult<Self> {
+        let p: Vec<usize> = perm
+            .as_array()
+            .iter()
+            .map(|&k| usize::try_from(k).unwrap_or(usize::MAX))
+            .collect();
+        let map = coordinates::CoordinateMap::permuted(p).map_err(value_error)?;
+        Ok(Self::made(py, map, "permuted", perm.as_any().clone()))
+    }
+
+    #[staticmethod]
+    fn modal<'py>(py: Python<'py>, basis: PyReadonlyArray2<'py, f64>) -> PyResult<Self> {
+        let n = basis.shape()[0];
+        if basis.shape()[1] != n {
+            return Err(PyValueError::new_err(format!(
+                "basis: expected a square matrix, got shape {:?}",
+                basis.shape()
+            )));
+        }
+        let q: Vec<f64> = basis.as_array().iter().copied().collect();
+        let map = coordinates::CoordinateMap::modal(n, q).map_err(value_error)?;
+        Ok(Self::made(py, map, "modal", basis.as_any().clone()))
+    }
+
+    #[staticmethod]
+    fn fourier<'py>(
+        py: Python<'py>,
+        grid: Bound<'py, FourierGrid>,
+        order: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<Self> {
+        let o: Vec<usize> = order
+            .as_array()
+            .iter()
+            .map(|&k| usize::try_from(k).unwrap_or(usize::MAX))
+            .collect();
+        let map = coordinates::CoordinateMap::fourier(Arc::clone(&grid.get().grid), o)
+            .map_err(value_error)?;
+        let arg = (grid, order.as_any().clone()).into_pyobject(py)?.into_any();
+        Ok(Self::made(py, map, "fourier", arg))
+    }
+
+    /// "identity", "permuted", "modal" or "fourier".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.map.kind()
+    }
+
+    /// Coordinates per state.
+    #[getter]
+    fn dim(&self) -> usize {
+        self.map.dim()
+    }
+
+    /// Q of a modal map (q = Q x), else None.
+    #[getter]
+    fn basis<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        let (how, arg) = &self.made_by;
+        (*how == "modal").then(|| arg.bind(py).clone())
+    }
+
+    #[getter]
+    fn is_identity(&self) -> bool {
+        self.map.is_identity()
+    }
+
+    /// to_core(x) -> the states x (user coordinates along the last axis) in the core's.
+    fn to_core<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.apply(py, x, coordinates::CoordinateMap::to_core)
+    }
+
+    /// to_user(x) -> the states x (core coordinates along the last axis) in the user's.
+    fn to_user<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.apply(py, x, coordinates::CoordinateMap::to_user)
+    }
+
+    /// numbers_to_core(x) -> per-coordinate numbers listed in the order of the problem's
+    /// frequencies (a method's coefficients) in the core's order.
+    fn numbers_to_core<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.apply(py, x, coordinates::CoordinateMap::numbers_to_core)
+    }
+
+    /// compose(m, rows) -> the input map m of a potential (a dict {"rows", "cols", "ptr",
+    /// "idx", "vals"} reading user coordinates; None: the first `rows` coordinates) as a map
+    /// of the core's coordinates, in the same form.
+    #[pyo3(signature = (m, rows))]
+    fn compose<'py>(
+        &self,
+        py: Python<'py>,
+        m: Option<Bound<'py, PyDict>>,
+        rows: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let given = match m {
+            Some(d) => Some(
+                SparseMap {
+                    rows: item(&d, "rows")?,
+                    cols: item(&d, "cols")?,
+                    ptr: item(&d, "ptr")?,
+                    idx: item(&d, "idx")?,
+                    vals: item::<Vec<f64>>(&d, "vals")?,
+                }
+                .checked()
+                .map_err(value_error)?,
+            ),
+            None => None,
+        };
+        let out = self
+            .map
+            .compose(given.as_ref(), rows)
+            .map_err(value_error)?;
+        let d = PyDict::new(py);
+        d.set_item("rows", out.rows)?;
+        d.set_item("cols", out.cols)?;
+        d.set_item("ptr", out.ptr)?;
+        d.set_item("idx", out.idx)?;
+        d.set_item("vals", PyArray1::from_vec(py, out.vals))?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("CoordinateMap({}, n={})", self.map.kind(), self.map.dim())
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let (how, arg) = &self.made_by;
+        let make = py.get_type::<CoordinateMap>().getattr(*how)?;
+        let arg = arg.bind(py).clone();
+        let args = if *how == "fourier" {
+            arg
+        } else {
+            (arg,).into_pyobject(py)?.into_any()
+        };
+        Ok((make, args))
+    }
+}

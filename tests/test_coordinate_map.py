@@ -1,0 +1,81 @@
+"""The core's coordinate map (`_core.CoordinateMap`): states in and out, a method's numbers, and
+the composition of a potential's input map, against NumPy and SciPy written independently."""
+
+import pickle
+
+import numpy as np
+import pytest
+import scipy.sparse
+from test_stiffness import EIGENVALUES, stiffness_with
+
+import trigint as ti
+from trigint import _core
+from trigint._native import core_layout
+
+
+def test_a_diagonal_problem_out_of_order_is_permuted_and_back():
+    prob = ti.OscillatoryProblem([50.0, 0.0, 70.0, 50.0], ti.PolynomialPotential([1.0], [[1, 0, 0, 0]]))
+    cmap = core_layout(prob).map
+    assert (cmap.kind, cmap.dim) == ("permuted", 4)
+    perm = np.argsort(prob.blocks, kind="stable")
+    x = np.random.default_rng(0).standard_normal((3, 2, 4))
+    for m in (cmap, pickle.loads(pickle.dumps(cmap))):
+        assert np.array_equal(m.to_core(x), x[..., perm])
+        assert np.array_equal(m.to_user(m.to_core(x)), x)
+        assert np.array_equal(m.numbers_to_core(x), x[..., perm])
+    # a column-major array is read by its values, not its memory order
+    f = np.asfortranarray(x[0])
+    assert np.array_equal(cmap.to_core(f), x[0][..., perm])
+    # an input map of user coordinates reads the same coordinates among the core's
+    m = {"rows": 2, "cols": 4, "ptr": [0, 2, 3], "idx": [3, 0, 2], "vals": np.array([1.0, -1.0, 2.0])}
+    c = cmap.compose(m, 2)
+    inverse = np.argsort(perm)
+    assert c["idx"] == [int(inverse[j]) for j in m["idx"]] and np.array_equal(c["vals"], m["vals"])
+    assert ti.OscillatoryProblem([0.0, 1.0], ti.PolynomialPotential([1.0], [[2, 0]])).dim == 2
+    assert core_layout(ti.problems.fpu(m=2)).map.is_identity
+
+
+def test_the_modal_map_is_the_basis_and_composes_as_scipy_multiplies():
+    prob = ti.OscillatoryProblem(stiffness=stiffness_with(EIGENVALUES, seed=4),
+                                 potential=ti.PolynomialPotential([1.0], [[1, 1, 0, 0, 0]]))
+    cmap = core_layout(prob).map
+    q_basis = prob.basis
+    assert cmap.kind == "modal" and np.array_equal(cmap.basis, q_basis)
+    q = np.random.default_rng(1).standard_normal((4, 5))
+    # x = Qᵀq, each row summed in order: the bits of the loop written out
+    want = np.zeros_like(q)
+    for r in range(4):
+        for k in range(5):
+            want[r] += q[r, k] * q_basis[k]
+    assert np.array_equal(cmap.to_core(q), want)
+    assert np.max(np.abs(cmap.to_user(cmap.to_core(q)) - q)) < 1e-14
+    assert np.array_equal(cmap.numbers_to_core(q), q)  # the frequencies are listed modally already
+    # M Q with the product's rounding noise dropped, as SciPy's sparse product gives it
+    m = {"rows": 2, "cols": 5, "ptr": [0, 2, 3], "idx": [1, 0, 4], "vals": np.array([1.0, -1.0, 0.5])}
+    left = scipy.sparse.csr_matrix((m["vals"], m["idx"], m["ptr"]), shape=(2, 5))
+    dense = np.asarray(left @ q_basis)
+    dense[np.abs(dense) <= 1e-15 * np.max(np.abs(dense), axis=1, keepdims=True)] = 0.0
+    want = scipy.sparse.csr_matrix(dense)
+    got = cmap.compose(m, 2)
+    assert got["ptr"] == want.indptr.tolist() and got["idx"] == want.indices.tolist()
+    assert np.array_equal(got["vals"], want.data)
+    ident = cmap.compose(None, 5)  # no map: the identity, so Q itself
+    assert np.array_equal(scipy.sparse.csr_matrix((ident["vals"], ident["idx"], ident["ptr"])).toarray(),
+                          np.where(np.abs(q_basis) <= 1e-15 * np.max(np.abs(q_basis), axis=1, keepdims=True),
+                                   0.0, q_basis))
+
+
+@pytest.mark.parametrize(("make", "match"), [
+    (lambda: _core.CoordinateMap.permuted(np.array([0, 0, 1])), "out of range or repeated"),
+    (lambda: _core.CoordinateMap.permuted(np.array([0, 3, 1])), "out of range or repeated"),
+    (lambda: _core.CoordinateMap.modal(np.zeros((2, 3))), "square"),
+    (lambda: _core.CoordinateMap.modal(np.full((2, 2), np.nan)), "not finite"),
+    (lambda: _core.CoordinateMap.identity(3).to_core(np.zeros((2, 4))), "3 coordinates"),
+    (lambda: _core.CoordinateMap.identity(3).compose({"rows": 1, "cols": 3, "ptr": [0, 1], "idx": [5],
+                                                       "vals": [1.0]}, 1), "column 5 out of range"),
+    (lambda: _core.CoordinateMap.identity(3).compose({"rows": 1, "cols": 4, "ptr": [0, 0], "idx": [],
+                                                       "vals": []}, 1), "reads 4 coordinates"),
+])
+def test_bad_maps_are_refused_with_what_was_wrong(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
