@@ -286,7 +286,7 @@ class WaveProblem(OscillatoryProblem):
         if getattr(self, "linear", False):  # V'(u) linear: no mode drives another, nothing to warn of
             return
         channels = sol.initial_energies
-        first = list(channels).index("oscillatory_1")  # the per-mode channels, in block order
+        first = channels.position("oscillatory_1")  # the per-mode channels, in block order
         initial = channels.to_numpy()[first:first + len(self.modes)]
         tolerance = min(float(np.sqrt(sol.h)), 0.1)
         found = energy_resonances(self, sol.h, initial, tolerance=tolerance)

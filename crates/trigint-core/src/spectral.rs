@@ -133,6 +133,24 @@ fn frequency(k: usize, n: usize) -> i64 {
 }
 
 impl Spectral {
+    /// The grid of `shape`, planned once per process while anything holds it: a wave problem's
+    /// coordinate map and its potential share one (each would otherwise plan its own FFTs).
+    pub fn shared(shape: &[usize]) -> CoreResult<Arc<Self>> {
+        use std::collections::HashMap;
+        use std::sync::{Mutex, OnceLock, Weak};
+        static GRIDS: OnceLock<Mutex<HashMap<Vec<usize>, Weak<Spectral>>>> = OnceLock::new();
+        let grids = GRIDS.get_or_init(Default::default);
+        let mut grids = grids.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(grid) = grids.get(shape).and_then(Weak::upgrade) {
+            return Ok(grid);
+        }
+        let grid = Arc::new(Spectral::new(shape)?);
+        // (a grid no longer held is dropped from the table when another is made)
+        grids.retain(|_, g| g.strong_count() > 0);
+        grids.insert(shape.to_vec(), Arc::downgrade(&grid));
+        Ok(grid)
+    }
+
     /// The coordinates of a grid of `shape` points per axis (1 to 3 axes, each even and ≥ 2).
     pub fn new(shape: &[usize]) -> CoreResult<Self> {
         let bad = |reason: String| Err(CoreError::invalid("grid", reason));
@@ -449,5 +467,19 @@ mod tests {
             assert!(Spectral::new(&shape).is_err(), "{shape:?}");
         }
         assert!(Spectral::new(&[1 << 13, 1 << 12]).is_err());
+        assert!(Spectral::shared(&[3]).is_err());
+    }
+
+    #[test]
+    fn a_shape_is_planned_once_while_it_is_held() {
+        let a = Spectral::shared(&[6, 10]).unwrap();
+        let b = Spectral::shared(&[6, 10]).unwrap();
+        assert!(Arc::ptr_eq(&a, &b));
+        assert!(!Arc::ptr_eq(&a, &Spectral::shared(&[10, 6]).unwrap()));
+        let weak = Arc::downgrade(&a);
+        drop((a, b));
+        // nothing holds it: it is freed, and the next request plans it again
+        assert!(weak.upgrade().is_none());
+        assert_eq!(Spectral::shared(&[6, 10]).unwrap().points(), 60);
     }
 }

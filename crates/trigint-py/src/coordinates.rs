@@ -2,6 +2,7 @@
 //! (`trigint_core::coordinates`), applied to states in and out and composed with potentials'
 //! input maps.
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use numpy::{
@@ -59,13 +60,13 @@ impl CoordinateMap {
             )));
         }
         // (`as_slice` also takes a column-major array, in its memory order: rows are wanted)
-        let data: Vec<f64> = match x.as_slice() {
-            Ok(s) if x.is_c_contiguous() => s.to_vec(),
-            _ => x.as_array().iter().copied().collect(),
+        let data = match x.as_slice() {
+            Ok(s) if x.is_c_contiguous() => Cow::Borrowed(s),
+            _ => Cow::Owned(x.as_array().iter().copied().collect()),
         };
         let mut out = vec![0.0; data.len()];
-        let map = Arc::clone(&self.map);
-        py.detach(|| f(&map, &data, &mut out));
+        let map = &*self.map;
+        py.detach(|| f(map, &data, &mut out));
         PyArray1::from_vec(py, out).reshape(shape)
     }
 }

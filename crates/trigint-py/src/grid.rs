@@ -75,13 +75,13 @@ impl FourierGrid {
     #[new]
     #[pyo3(signature = (shape, order=None))]
     fn new(shape: Vec<usize>, order: Option<PyReadonlyArray1<i64>>) -> PyResult<Self> {
-        let grid = Spectral::new(&shape).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let grid = Spectral::shared(&shape).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let order = match order {
             Some(o) => Some(Arc::new(checked_order(&grid, &o, "FourierGrid")?)),
             None => None,
         };
         Ok(FourierGrid {
-            grid: Arc::new(grid),
+            grid,
             order,
             kept: Mutex::new(None),
         })

@@ -6,6 +6,8 @@
 //! Lanes are stepped one after the other through the same f64 code, so a trajectory has the
 //! same bits alone and in a bundle.
 
+use std::sync::Arc;
+
 use super::compiled::{Program, ProgramSpec};
 use super::{Potential, Scratch};
 use crate::description::{FromDescription, Value};
@@ -19,7 +21,7 @@ const TILE: usize = 128;
 /// U(q) = mean_x V((S q)(x)) on a periodic grid.
 #[derive(Debug)]
 pub struct Wave {
-    grid: Spectral,
+    grid: Arc<Spectral>,
     v: Program,
     /// Kernel coordinate k is Fourier coordinate `order[k]` of [`Spectral::slots`].
     order: Vec<usize>,
@@ -63,7 +65,7 @@ impl Wave {
                 format!("V must be a function of u alone, got {} inputs", v.n_inputs),
             ));
         }
-        let grid = Spectral::new(shape)?;
+        let grid = Spectral::shared(shape)?;
         let n = grid.points();
         let mut seen = vec![false; n];
         if order.len() != n
