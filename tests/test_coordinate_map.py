@@ -23,9 +23,13 @@ def test_a_diagonal_problem_out_of_order_is_permuted_and_back():
         assert np.array_equal(m.to_core(x), x[..., perm])
         assert np.array_equal(m.to_user(m.to_core(x)), x)
         assert np.array_equal(m.numbers_to_core(x), x[..., perm])
-    # a column-major array is read by its values, not its memory order
+    # a column-major array is read by its values, not its memory order; lists and integers are
+    # taken as floats
     f = np.asfortranarray(x[0])
     assert np.array_equal(cmap.to_core(f), x[0][..., perm])
+    assert np.array_equal(cmap.to_core([[1, 2, 3, 4]]), np.array([[1.0, 2.0, 3.0, 4.0]])[..., perm])
+    with pytest.raises(ValueError, match="4 coordinates along the last axis"):
+        cmap.to_user([1.0, 2.0])
     # an input map of user coordinates reads the same coordinates among the core's
     m = {"rows": 2, "cols": 4, "ptr": [0, 2, 3], "idx": [3, 0, 2], "vals": np.array([1.0, -1.0, 2.0])}
     c = cmap.compose(m, 2)
@@ -68,6 +72,7 @@ def test_the_modal_map_is_the_basis_and_composes_as_scipy_multiplies():
 @pytest.mark.parametrize(("make", "match"), [
     (lambda: _core.CoordinateMap.permuted(np.array([0, 0, 1])), "out of range or repeated"),
     (lambda: _core.CoordinateMap.permuted(np.array([0, 3, 1])), "out of range or repeated"),
+    (lambda: _core.CoordinateMap.permuted(np.array([0, -2, 1])), "-2 is out of range"),
     (lambda: _core.CoordinateMap.modal(np.zeros((2, 3))), "square"),
     (lambda: _core.CoordinateMap.modal(np.full((2, 2), np.nan)), "not finite"),
     (lambda: _core.CoordinateMap.identity(3).to_core(np.zeros((2, 4))), "3 coordinates"),

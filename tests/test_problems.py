@@ -135,3 +135,9 @@ def test_custom_blocks():
     # a block of two frequencies has no ω_j: refused, naming them
     with pytest.raises(ValueError, match=r"blocks: block 2 holds the frequencies \[10.0, 20.0\]"):
         ti.OscillatoryProblem(omega, pot, blocks=[0, 1, 2, 2])
+    # labels in order and out of order are checked alike; a skipped or negative label is refused
+    assert ti.OscillatoryProblem(omega, pot, blocks=[0, 2, 2, 1]).block_frequencies.tolist() == [20.0, 10.0]
+    for bad, match in [([0, 1, 1, 3], r"none skipped, got \[1, 3\]"), ([0, 3, 3, 1], r"none skipped, got \[1, 3\]"),
+                       ([0, 2, 2, 3], r"none skipped, got \[2, 3\]"), ([0, 1, -1, 2], r"blocks\[2\] = -1")]:
+        with pytest.raises(ValueError, match=match):
+            ti.OscillatoryProblem(omega, pot, blocks=bad)

@@ -3,9 +3,11 @@ dictionaries `trigint._core` takes, and unpacks its results.
 
 The core runs in its own coordinates: slow coordinates first, then each oscillatory block
 contiguous (stable within a block). For a diagonal Ω these are the user's coordinates permuted;
-for a stiffness matrix A = QΛQᵀ they are the modal coordinates x = Qᵀq. Users never see them:
-states are transformed on the way in and back on the way out, and potentials are given their
-inputs in the user's coordinates (the permutation or Q composed into their input maps).
+for a stiffness matrix A = QΛQᵀ they are the modal coordinates x = Qᵀq; for a wave equation the
+real Fourier coordinates of the grid values. Users never see them: the core's coordinate map
+(``_core.CoordinateMap``) transforms states on the way in and back on the way out, and
+potentials are given their inputs in the user's coordinates (the map composed into their input
+maps).
 """
 
 from __future__ import annotations
@@ -73,18 +75,23 @@ class CoreLayout:
     def identity(self) -> bool:
         return self.map.is_identity
 
+    # (the identity hands the array back, as it comes, rather than copying it through the core)
+
     def to_core(self, x: np.ndarray) -> np.ndarray:
         """User coordinates → core coordinates along the last axis."""
-        return self.map.to_core(np.asarray(x, dtype=float))
+        x = np.asarray(x, dtype=float)
+        return x if self.map.is_identity else self.map.to_core(x)
 
     def to_user(self, x: np.ndarray) -> np.ndarray:
         """Core coordinates → user coordinates along the last axis."""
-        return self.map.to_user(np.asarray(x, dtype=float))
+        x = np.asarray(x, dtype=float)
+        return x if self.map.is_identity else self.map.to_user(x)
 
     def rows_to_core(self, x: np.ndarray) -> np.ndarray:
         """Per-coordinate numbers (a method's rows, listed like the problem's frequencies) in
         the core's order: only a permutation moves them."""
-        return self.map.numbers_to_core(np.asarray(x, dtype=float))
+        x = np.asarray(x, dtype=float)
+        return x if self.map.is_identity else self.map.numbers_to_core(x)
 
 
 def evaluator(spec: dict):

@@ -72,8 +72,6 @@ pub enum CoordinateMap {
         n: usize,
         /// Q, row-major: q = Q x
         basis: Vec<f64>,
-        /// Qᵀ, row-major
-        transposed: Vec<f64>,
     },
     Fourier {
         grid: Arc<Spectral>,
@@ -144,17 +142,7 @@ impl CoordinateMap {
                 format!("entry {i} is not finite"),
             ));
         }
-        let mut transposed = vec![0.0; n * n];
-        for i in 0..n {
-            for j in 0..n {
-                transposed[j * n + i] = basis[i * n + j];
-            }
-        }
-        Ok(CoordinateMap::Modal {
-            n,
-            basis,
-            transposed,
-        })
+        Ok(CoordinateMap::Modal { n, basis })
     }
 
     /// The Fourier map of `grid` with its coordinates in `order`.
@@ -229,7 +217,7 @@ impl CoordinateMap {
         match self {
             CoordinateMap::Identity { .. } => out.copy_from_slice(x),
             CoordinateMap::Permuted { inverse, .. } => gather(x, out, inverse),
-            CoordinateMap::Modal { n, transposed, .. } => rows_times(x, transposed, *n, *n, out),
+            CoordinateMap::Modal { n, basis } => rows_times_transposed(x, basis, *n, out),
             CoordinateMap::Fourier { grid, order, kept } => {
                 let n = order.len();
                 let mut ws = take(kept, grid);
@@ -308,6 +296,20 @@ impl CoordinateMap {
     }
 }
 
+/// y = x Qᵀ for rows x, read from Q itself: y_j = Σ_k x_k Q_jk summed over k in increasing order
+/// from 0, the order of `rows_times(x, Qᵀ)` (the same bits, without a transposed copy of Q).
+fn rows_times_transposed(x: &[f64], basis: &[f64], n: usize, out: &mut [f64]) {
+    for (xr, yr) in x.chunks_exact(n.max(1)).zip(out.chunks_exact_mut(n.max(1))) {
+        for (y, qr) in yr.iter_mut().zip(basis.chunks_exact(n)) {
+            let mut acc = 0.0;
+            for (a, q) in xr.iter().zip(qr) {
+                acc += a * q;
+            }
+            *y = acc;
+        }
+    }
+}
+
 /// out[k] = x[from[k]] in every row.
 fn gather(x: &[f64], out: &mut [f64], from: &[usize]) {
     let n = from.len().max(1);
@@ -347,9 +349,16 @@ fn modal_product(m: &SparseMap, basis: &[f64], n: usize) -> SparseMap {
                 *y += a * x;
             }
         }
-        let big = row.iter().fold(0.0f64, |b, y| b.max(y.abs()));
+        // (as NumPy's max: a NaN makes the row's largest NaN, and then nothing is dropped)
+        let big = row.iter().fold(0.0f64, |b, y| {
+            if y.is_nan() || b.is_nan() {
+                f64::NAN
+            } else {
+                b.max(y.abs())
+            }
+        });
         for (j, &y) in row.iter().enumerate() {
-            if y != 0.0 && y.abs() > 1e-15 * big {
+            if y != 0.0 && (big.is_nan() || y.abs() > 1e-15 * big) {
                 out.idx.push(j);
                 out.vals.push(y);
             }
@@ -428,6 +437,39 @@ mod tests {
             .map(|(&j, v)| v * x[j])
             .sum();
         assert!((mq - q[0]).abs() < 1e-15);
+    }
+
+    #[test]
+    fn to_user_has_the_bits_of_the_product_with_the_transposed_basis() {
+        let n = 5;
+        let q: Vec<f64> = (0..n * n).map(|i| (i as f64 * 0.77).sin()).collect();
+        let mut t = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                t[j * n + i] = q[i * n + j];
+            }
+        }
+        let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 1.3).cos() * 1e3).collect();
+        let (mut want, mut got) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
+        rows_times(&x, &t, n, n, &mut want);
+        CoordinateMap::modal(n, q).unwrap().to_user(&x, &mut got);
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_row_with_a_nan_keeps_its_entries_as_numpy_does() {
+        let m = SparseMap {
+            rows: 1,
+            cols: 2,
+            ptr: vec![0, 2],
+            idx: vec![0, 1],
+            vals: vec![f64::NAN, 1e-20],
+        };
+        let c = CoordinateMap::modal(2, vec![1.0, 0.0, 0.0, 1.0])
+            .unwrap()
+            .compose(Some(&m), 1)
+            .unwrap();
+        assert_eq!(c.idx, vec![0, 1]);
     }
 
     #[test]

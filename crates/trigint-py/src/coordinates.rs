@@ -21,6 +21,21 @@ fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
 
+/// Indices of a permutation; a negative one is refused here, with its value.
+fn indices(a: &PyReadonlyArray1<'_, i64>, what: &str) -> PyResult<Vec<usize>> {
+    a.as_array()
+        .iter()
+        .map(|&k| {
+            usize::try_from(k).map_err(|_| {
+                PyValueError::new_err(format!(
+                    "{what}: must be a permutation of 0..{}; {k} is out of range",
+                    a.len()
+                ))
+            })
+        })
+        .collect()
+}
+
 /// CoordinateMap: how the core's coordinates are made from the user's. Built by
 /// `CoordinateMap.identity(n)`, `.permuted(perm)` (core coordinate k is user coordinate
 /// perm[k]), `.modal(basis)` (q = Q x) or `.fourier(grid, order)` (q = Sᵀu / N, in `order`).
@@ -32,26 +47,28 @@ pub struct CoordinateMap {
 }
 
 impl CoordinateMap {
-    fn made(
-        py: Python<'_>,
-        map: coordinates::CoordinateMap,
-        how: &'static str,
-        arg: Bound<'_, PyAny>,
-    ) -> Self {
-        let _ = py;
+    fn made(map: coordinates::CoordinateMap, how: &'static str, arg: Bound<'_, PyAny>) -> Self {
         CoordinateMap {
             map: Arc::new(map),
             made_by: (how, arg.unbind()),
         }
     }
 
-    /// `f(rows, out)` over the rows of `x` (last axis: the map's coordinates), same shape out.
+    /// `f(rows, out)` over the rows of `x` (any array-like of floats; last axis: the map's
+    /// coordinates), an array of the same shape out.
     fn apply<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArrayDyn<'py, f64>,
+        x: &Bound<'py, PyAny>,
         f: fn(&coordinates::CoordinateMap, &[f64], &mut [f64]),
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let x: PyReadonlyArrayDyn<'py, f64> = match x.extract() {
+            Ok(a) => a,
+            Err(_) => py
+                .import("numpy")?
+                .call_method1("asarray", (x, "float64"))?
+                .extract()?,
+        };
         let n = self.map.dim();
         let shape = x.shape().to_vec();
         if shape.last() != Some(&n) {
@@ -77,7 +94,6 @@ impl CoordinateMap {
     fn identity(py: Python<'_>, n: usize) -> PyResult<Self> {
         let arg = n.into_pyobject(py)?.into_any();
         Ok(Self::made(
-            py,
             coordinates::CoordinateMap::Identity { n },
             "identity",
             arg,
@@ -85,18 +101,14 @@ impl CoordinateMap {
     }
 
     #[staticmethod]
-    fn permuted<'py>(py: Python<'py>, perm: PyReadonlyArray1<'py, i64>) -> PyResult<Self> {
-        let p: Vec<usize> = perm
-            .as_array()
-            .iter()
-            .map(|&k| usize::try_from(k).unwrap_or(usize::MAX))
-            .collect();
+    fn permuted<'py>(perm: PyReadonlyArray1<'py, i64>) -> PyResult<Self> {
+        let p = indices(&perm, "perm")?;
         let map = coordinates::CoordinateMap::permuted(p).map_err(value_error)?;
-        Ok(Self::made(py, map, "permuted", perm.as_any().clone()))
+        Ok(Self::made(map, "permuted", perm.as_any().clone()))
     }
 
     #[staticmethod]
-    fn modal<'py>(py: Python<'py>, basis: PyReadonlyArray2<'py, f64>) -> PyResult<Self> {
+    fn modal<'py>(basis: PyReadonlyArray2<'py, f64>) -> PyResult<Self> {
         let n = basis.shape()[0];
         if basis.shape()[1] != n {
             return Err(PyValueError::new_err(format!(
@@ -106,7 +118,7 @@ impl CoordinateMap {
         }
         let q: Vec<f64> = basis.as_array().iter().copied().collect();
         let map = coordinates::CoordinateMap::modal(n, q).map_err(value_error)?;
-        Ok(Self::made(py, map, "modal", basis.as_any().clone()))
+        Ok(Self::made(map, "modal", basis.as_any().clone()))
     }
 
     #[staticmethod]
@@ -115,15 +127,11 @@ impl CoordinateMap {
         grid: Bound<'py, FourierGrid>,
         order: PyReadonlyArray1<'py, i64>,
     ) -> PyResult<Self> {
-        let o: Vec<usize> = order
-            .as_array()
-            .iter()
-            .map(|&k| usize::try_from(k).unwrap_or(usize::MAX))
-            .collect();
+        let o = indices(&order, "order")?;
         let map = coordinates::CoordinateMap::fourier(Arc::clone(&grid.get().grid), o)
             .map_err(value_error)?;
         let arg = (grid, order.as_any().clone()).into_pyobject(py)?.into_any();
-        Ok(Self::made(py, map, "fourier", arg))
+        Ok(Self::made(map, "fourier", arg))
     }
 
     /// "identity", "permuted", "modal" or "fourier".
@@ -154,7 +162,7 @@ impl CoordinateMap {
     fn to_core<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArrayDyn<'py, f64>,
+        x: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.apply(py, x, coordinates::CoordinateMap::to_core)
     }
@@ -163,7 +171,7 @@ impl CoordinateMap {
     fn to_user<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArrayDyn<'py, f64>,
+        x: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.apply(py, x, coordinates::CoordinateMap::to_user)
     }
@@ -173,7 +181,7 @@ impl CoordinateMap {
     fn numbers_to_core<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArrayDyn<'py, f64>,
+        x: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.apply(py, x, coordinates::CoordinateMap::numbers_to_core)
     }
