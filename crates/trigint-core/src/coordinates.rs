@@ -194,18 +194,8 @@ impl CoordinateMap {
             CoordinateMap::Permuted { perm, .. } => gather(x, out, perm),
             CoordinateMap::Modal { n, basis, .. } => rows_times(x, basis, *n, *n, out),
             CoordinateMap::Fourier { grid, order, kept } => {
-                let n = order.len();
                 let mut ws = take(kept, grid);
-                let mut row = vec![0.0; n];
-                let mut canonical = vec![0.0; n];
-                for (u, q) in x.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
-                    // (the transform overwrites its input)
-                    row.copy_from_slice(u);
-                    grid.transpose(&mut row, &mut canonical, 1.0 / n as f64, &mut ws);
-                    for (q, &k) in q.iter_mut().zip(order) {
-                        *q = canonical[k];
-                    }
-                }
+                grid.rows_from_grid(Some(order), x, out, &mut ws);
                 keep(kept, ws);
             }
         }
@@ -219,15 +209,8 @@ impl CoordinateMap {
             CoordinateMap::Permuted { inverse, .. } => gather(x, out, inverse),
             CoordinateMap::Modal { n, basis } => rows_times_transposed(x, basis, *n, out),
             CoordinateMap::Fourier { grid, order, kept } => {
-                let n = order.len();
                 let mut ws = take(kept, grid);
-                let mut canonical = vec![0.0; n];
-                for (q, u) in x.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
-                    for (&k, &v) in order.iter().zip(q) {
-                        canonical[k] = v;
-                    }
-                    grid.to_grid(&canonical, u, &mut ws);
-                }
+                grid.rows_to_grid(Some(order), x, out, &mut ws);
                 keep(kept, ws);
             }
         }

@@ -356,6 +356,59 @@ impl Spectral {
         }
     }
 
+    /// u = S q for each row of `q` (N numbers per row) into the rows of `u`; with `order`, a
+    /// row's coordinate k is the grid's coordinate order[k] (a permutation, checked by the
+    /// caller).
+    pub fn rows_to_grid(
+        &self,
+        order: Option<&[usize]>,
+        q: &[f64],
+        u: &mut [f64],
+        ws: &mut SpectralWorkspace,
+    ) {
+        let n = self.points;
+        let mut canonical = order.map(|_| vec![0.0; n]);
+        for (q, u) in q.chunks_exact(n).zip(u.chunks_exact_mut(n)) {
+            let q = match (order, &mut canonical) {
+                (Some(order), Some(c)) => {
+                    for (&k, &x) in order.iter().zip(q) {
+                        c[k] = x;
+                    }
+                    &c[..]
+                }
+                _ => q,
+            };
+            self.to_grid(q, u, ws);
+        }
+    }
+
+    /// q = Sᵀu / N (the inverse of [`Spectral::rows_to_grid`]) for each row of `u`, in
+    /// `order` as there.
+    pub fn rows_from_grid(
+        &self,
+        order: Option<&[usize]>,
+        u: &[f64],
+        q: &mut [f64],
+        ws: &mut SpectralWorkspace,
+    ) {
+        let n = self.points;
+        // the transform overwrites its input
+        let mut row = vec![0.0; n];
+        let mut canonical = order.map(|_| vec![0.0; n]);
+        for (u, q) in u.chunks_exact(n).zip(q.chunks_exact_mut(n)) {
+            row.copy_from_slice(u);
+            match (order, &mut canonical) {
+                (Some(order), Some(c)) => {
+                    self.transpose(&mut row, c, 1.0 / n as f64, ws);
+                    for (x, &k) in q.iter_mut().zip(order) {
+                        *x = c[k];
+                    }
+                }
+                _ => self.transpose(&mut row, q, 1.0 / n as f64, ws),
+            }
+        }
+    }
+
     /// out = scale · Sᵀ w for grid values w (row-major, N of them). `w` is used as scratch.
     pub fn transpose(
         &self,

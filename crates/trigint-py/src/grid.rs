@@ -139,19 +139,8 @@ impl FourierGrid {
         let mut out = vec![0.0; m * n];
         let mut ws = self.workspace();
         py.detach(|| {
-            let mut canonical = order.as_ref().map(|_| vec![0.0; n]);
-            for (q, u) in data.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
-                let q = match (&order, &mut canonical) {
-                    (Some(order), Some(c)) => {
-                        for (&k, &x) in order.iter().zip(q) {
-                            c[k] = x;
-                        }
-                        &c[..]
-                    }
-                    _ => q,
-                };
-                self.grid.to_grid(q, u, &mut ws);
-            }
+            self.grid
+                .rows_to_grid(order.as_ref().map(|o| &o[..]), &data, &mut out, &mut ws)
         });
         self.keep(ws);
         to_2d(py, out, m, n)
@@ -172,21 +161,8 @@ impl FourierGrid {
         let mut out = vec![0.0; m * n];
         let mut ws = self.workspace();
         py.detach(|| {
-            // the transform overwrites its input
-            let mut row = vec![0.0; n];
-            let mut canonical = order.as_ref().map(|_| vec![0.0; n]);
-            for (u, q) in data.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
-                row.copy_from_slice(u);
-                match (&order, &mut canonical) {
-                    (Some(order), Some(c)) => {
-                        self.grid.transpose(&mut row, c, 1.0 / n as f64, &mut ws);
-                        for (x, &k) in q.iter_mut().zip(order.iter()) {
-                            *x = c[k];
-                        }
-                    }
-                    _ => self.grid.transpose(&mut row, q, 1.0 / n as f64, &mut ws),
-                }
-            }
+            self.grid
+                .rows_from_grid(order.as_ref().map(|o| &o[..]), &data, &mut out, &mut ws)
         });
         self.keep(ws);
         to_2d(py, out, m, n)
