@@ -171,30 +171,30 @@ fn lanes<L: Real>(methods: &[&MethodCoefficients], f: &dyn Fn(&MethodCoefficient
     v
 }
 
-/// A row of bundle numbers: `f` writes one method's row (all coordinates in one tight loop; a
+/// A row of bundle numbers: `f` makes one method's row (all coordinates in one tight loop; a
 /// call per number through `&dyn Fn` cost 2.3 ms per row at 2^16 coordinates), lane b takes
 /// method b's (lanes beyond `methods` repeat the last one).
 #[inline(never)]
 fn row<L: Real, Sh: Shape>(
     sh: &Sh,
     methods: &[&MethodCoefficients],
-    f: &dyn Fn(&MethodCoefficients, &mut [f64]),
+    f: &dyn Fn(&MethodCoefficients) -> Vec<f64>,
 ) -> Sh::S<L> {
     let n = sh.n();
-    let mut s = Sh::S::<L>::filled(n, L::zero());
+    let last = methods.len() - 1;
+    let mut one = f(methods[0]);
     if L::LANES == 1 {
-        // One trajectory: its row written in place (a 2^16-point wave call's rows were a
-        // tenth of its fixed cost with a scratch row and a copy).
-        if let Some(x) = L::as_f64s_mut(s.get_mut()) {
-            f(methods[0], x);
-            return s;
+        // One trajectory in `f64`: the row made is the kernel's row, not filled with zeros first
+        // and not copied (writing zeros into a 2^16-point wave call's 14 rows cost 0.3 ms).
+        match L::vec_from_f64s(one) {
+            Ok(v) => return Sh::S::<L>::from_vec(v),
+            Err(v) => one = v,
         }
     }
-    let mut one = vec![0.0; n];
-    let last = methods.len() - 1;
+    let mut s = Sh::S::<L>::filled(n, L::zero());
     for b in 0..L::LANES {
-        if b <= last {
-            f(methods[b], &mut one);
+        if b > 0 && b <= last {
+            one = f(methods[b]);
         }
         for (x, &y) in s.get_mut().iter_mut().zip(&one) {
             x.set_lane(b, y);
@@ -203,12 +203,10 @@ fn row<L: Real, Sh: Shape>(
     s
 }
 
-/// out_i = g(a_i): the loop of one row.
+/// g(a_i) for each i: the loop of one row.
 #[inline(always)]
-fn each(out: &mut [f64], a: &[f64], g: impl Fn(f64) -> f64) {
-    for (o, &x) in out.iter_mut().zip(a) {
-        *o = g(x);
-    }
+fn each(a: &[f64], g: impl Fn(f64) -> f64) -> Vec<f64> {
+    a.iter().map(|&x| g(x)).collect()
 }
 
 impl<L: Real, S: Storage<L>> Coef<L, S> {
@@ -221,32 +219,32 @@ impl<L: Real, S: Storage<L>> Coef<L, S> {
             half_h2: lanes(methods, &|m| 0.5 * m.h * m.h),
             inv_2h: lanes(methods, &|m| 1.0 / (2.0 * m.h)),
             half_h: lanes(methods, &|m| 0.5 * m.h),
-            omc: row::<L, Sh>(sh, methods, &|m, o| each(o, &m.one_minus_cos, |x| x)),
-            two_omc: row::<L, Sh>(sh, methods, &|m, o| each(o, &m.one_minus_cos, |x| 2.0 * x)),
-            h2_psi: row::<L, Sh>(sh, methods, &|m, o| {
+            omc: row::<L, Sh>(sh, methods, &|m| m.one_minus_cos.clone()),
+            two_omc: row::<L, Sh>(sh, methods, &|m| each(&m.one_minus_cos, |x| 2.0 * x)),
+            h2_psi: row::<L, Sh>(sh, methods, &|m| {
                 let h2 = m.h * m.h;
-                each(o, &m.psi, |x| h2 * x)
+                each(&m.psi, |x| h2 * x)
             }),
-            half_h2_psi: row::<L, Sh>(sh, methods, &|m, o| {
+            half_h2_psi: row::<L, Sh>(sh, methods, &|m| {
                 let a = 0.5 * m.h * m.h;
-                each(o, &m.psi, |x| a * x)
+                each(&m.psi, |x| a * x)
             }),
-            phi: row::<L, Sh>(sh, methods, &|m, o| each(o, &m.phi, |x| x)),
-            inv_2h_chi: row::<L, Sh>(sh, methods, &|m, o| {
+            phi: row::<L, Sh>(sh, methods, &|m| m.phi.clone()),
+            inv_2h_chi: row::<L, Sh>(sh, methods, &|m| {
                 let a = 2.0 * m.h;
-                each(o, &m.chi, |x| 1.0 / (a * x))
+                each(&m.chi, |x| 1.0 / (a * x))
             }),
-            h_chi: row::<L, Sh>(sh, methods, &|m, o| each(o, &m.chi, |x| m.h * x)),
-            p_from_q: row::<L, Sh>(sh, methods, &|m, o| each(o, &m.sin2_over_h_chi, |x| -x)),
-            half_h_psi0: row::<L, Sh>(sh, methods, &|m, o| {
+            h_chi: row::<L, Sh>(sh, methods, &|m| each(&m.chi, |x| m.h * x)),
+            p_from_q: row::<L, Sh>(sh, methods, &|m| each(&m.sin2_over_h_chi, |x| -x)),
+            half_h_psi0: row::<L, Sh>(sh, methods, &|m| {
                 let a = 0.5 * m.h;
-                for ((o, &omc), &r) in o.iter_mut().zip(&m.one_minus_cos).zip(&m.psi_over_chi) {
-                    *o = a * (1.0 - omc) * r;
-                }
+                (m.one_minus_cos.iter().zip(&m.psi_over_chi))
+                    .map(|(&omc, &r)| a * (1.0 - omc) * r)
+                    .collect()
             }),
-            half_h_psi1: row::<L, Sh>(sh, methods, &|m, o| {
+            half_h_psi1: row::<L, Sh>(sh, methods, &|m| {
                 let a = 0.5 * m.h;
-                each(o, &m.psi_over_chi, |x| a * x)
+                each(&m.psi_over_chi, |x| a * x)
             }),
             phi_is_identity: methods
                 .iter()
@@ -298,18 +296,14 @@ impl<L: Real, S: Storage<L>> Weights<L, S> {
         omega2: &[f64],
         methods: &[&MethodCoefficients],
     ) -> Self {
-        let ns = sh.ns();
+        let (ns, n) = (sh.ns(), sh.n());
         let plain_modified = methods
             .iter()
             .all(|m| (ns..sh.n()).all(|i| m.modified_p[i] == 1.0 && m.modified_q[i] == omega2[i]));
         Weights {
-            omega2: row::<L, Sh>(sh, methods, &|_, o| o.copy_from_slice(&omega2[..o.len()])),
-            modified_p: row::<L, Sh>(sh, methods, &|m, o| {
-                o.copy_from_slice(&m.modified_p[..o.len()])
-            }),
-            modified_q: row::<L, Sh>(sh, methods, &|m, o| {
-                o.copy_from_slice(&m.modified_q[..o.len()])
-            }),
+            omega2: row::<L, Sh>(sh, methods, &|_| omega2[..n].to_vec()),
+            modified_p: row::<L, Sh>(sh, methods, &|m| m.modified_p[..n].to_vec()),
+            modified_q: row::<L, Sh>(sh, methods, &|m| m.modified_q[..n].to_vec()),
             plain_modified,
             _lane: std::marker::PhantomData,
         }

@@ -145,6 +145,12 @@ pub trait Real:
     fn as_f64s_mut(_x: &mut [Self]) -> Option<&mut [f64]> {
         None
     }
+    /// A vector of `f64`s as a vector of this type, taken over without a copy where the type
+    /// is `f64` itself; otherwise handed back.
+    #[inline(always)]
+    fn vec_from_f64s(v: Vec<f64>) -> Result<Vec<Self>, Vec<f64>> {
+        Err(v)
+    }
 
     #[inline(always)]
     fn zero() -> Self {
@@ -214,6 +220,10 @@ impl Real for f64 {
     #[inline(always)]
     fn as_f64s_mut(x: &mut [Self]) -> Option<&mut [f64]> {
         Some(x)
+    }
+    #[inline(always)]
+    fn vec_from_f64s(v: Vec<f64>) -> Result<Vec<Self>, Vec<f64>> {
+        Ok(v)
     }
 }
 

@@ -14,6 +14,9 @@ use crate::real::{first_failing, Real};
 /// One number per coordinate: a fixed-size array (small problems) or a vector.
 pub trait Storage<L>: Clone + Send + Sync {
     fn filled(n: usize, value: L) -> Self;
+    /// The storage of these numbers (as many as the storage holds), the vector's own memory
+    /// where the storage is a vector.
+    fn from_vec(v: Vec<L>) -> Self;
     /// A placeholder that owns nothing (an empty vector, or zeros).
     fn placeholder() -> Self;
     fn get(&self) -> &[L];
@@ -25,6 +28,12 @@ impl<L: Real, const N: usize> Storage<L> for [L; N] {
     fn filled(n: usize, value: L) -> Self {
         debug_assert_eq!(n, N);
         [value; N]
+    }
+    #[inline(always)]
+    fn from_vec(v: Vec<L>) -> Self {
+        let mut a = [L::zero(); N];
+        a.copy_from_slice(&v);
+        a
     }
     #[inline(always)]
     fn placeholder() -> Self {
@@ -43,6 +52,9 @@ impl<L: Real, const N: usize> Storage<L> for [L; N] {
 impl<L: Real> Storage<L> for Vec<L> {
     fn filled(n: usize, value: L) -> Self {
         vec![value; n]
+    }
+    fn from_vec(v: Vec<L>) -> Self {
+        v
     }
     fn placeholder() -> Self {
         Vec::new()

@@ -138,7 +138,13 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             k: Coef::new(sh, methods),
             w: Weights::new(sh, omega2, methods),
             st,
-            checkpoint: (z(), z(), z(), Extremes::new(n_blocks, 0)),
+            // (filled at the first check: zeros written here would only be overwritten)
+            checkpoint: (
+                Sh::S::<L>::placeholder(),
+                Sh::S::<L>::placeholder(),
+                Sh::S::<L>::placeholder(),
+                Extremes::new(n_blocks, 0),
+            ),
             good: Observed {
                 step: 0,
                 q: z(),
@@ -290,9 +296,9 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for Bundle<'_, L, Sh, P> {
     }
 
     fn save_checkpoint(&mut self) {
-        self.checkpoint.0.get_mut().copy_from_slice(self.st.q.get());
-        self.checkpoint.1.get_mut().copy_from_slice(self.st.d.get());
-        self.checkpoint.2.get_mut().copy_from_slice(self.st.p.get());
+        self.checkpoint.0.clone_from(&self.st.q);
+        self.checkpoint.1.clone_from(&self.st.d);
+        self.checkpoint.2.clone_from(&self.st.p);
         self.checkpoint.3.clone_from(&self.ext);
     }
 
