@@ -183,7 +183,7 @@ fn row<L: Real, Sh: Shape>(
     let n = sh.n();
     let last = methods.len() - 1;
     let mut one = f(methods[0]);
-    if L::LANES == 1 {
+    if L::LANES == 1 && one.len() == n {
         // One trajectory in `f64`: the row made is the kernel's row, not filled with zeros first
         // and not copied (writing zeros into a 2^16-point wave call's 14 rows cost 0.3 ms).
         match L::vec_from_f64s(one) {
