@@ -73,6 +73,19 @@ def test_a_problem_converts_its_layout_and_methods_once_and_they_pickle_as_descr
     out = _core.integrate(_native.problem_potential(prob, lay), layout, method, lay.to_core(u0), lay.to_core(v0),
                           20, 10, "two-step", True, 1024)
     assert np.array_equal(lay.to_user(out.samples[0]["q"]), a.q)
+    # the kept handles are checked once and keep the kernels' rows (made at the first call):
+    # a third call, a fresh problem's run and the one-step form agree bit for bit
+    fresh = ti.problems.wave(64, rho=1.0, potential="u**4/4")
+    for form in ("two-step", "one-step", "two-step"):
+        c = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=20, save_every=10, form=form)
+        d = ti.integrate(fresh, "B", u0, v0, h=0.05, n_steps=20, save_every=10, form=form)
+        assert np.array_equal(c.q, d.q) and np.array_equal(c.p, d.p)
+    assert np.array_equal(c.q, a.q)
+    # ... and a state of another size is refused at every call, as before
+    for _ in range(2):
+        with pytest.raises(ValueError, match="has 63 entries for 64 coordinates"):
+            _core.integrate(_native.problem_potential(prob, lay), lay.spec, handle, lay.to_core(u0)[:63],
+                            lay.to_core(v0)[:63], 20, 10, "two-step", True, 1024)
 
 
 def test_every_native_kind_is_read_from_its_description_by_the_core():

@@ -25,6 +25,7 @@ pub mod krylov;
 pub mod output;
 pub mod plan;
 pub mod potential;
+pub mod prepared;
 pub mod real;
 pub mod recursion;
 pub mod recycle;
@@ -41,10 +42,11 @@ pub use output::{Form, Record, Status, TrajectoryOutput};
 pub use potential::{
     Chain, ChainTerm, Fpu, LinearMap, Native, Op, Potential, Program, ProgramSpec, Scratch, Wave,
 };
+pub use prepared::{PreparedLayout, PreparedMethod};
 pub use real::{LaneSet, Lanes, Real, Scalar, MAX_LANES};
 pub use run::tangent::tangent;
 pub use run::Control;
-pub use run::{integrate, integrate_batch, tangent_batch};
+pub use run::{integrate, integrate_batch, integrate_prepared, tangent_batch};
 pub use run::{TangentOutput, TangentRequest};
 pub use shape::Layout;
 

@@ -12,7 +12,7 @@ use crate::error::{CoreError, CoreResult};
 use crate::real::{first_failing, Real};
 
 /// One number per coordinate: a fixed-size array (small problems) or a vector.
-pub trait Storage<L>: Clone + Send + Sync {
+pub trait Storage<L>: Clone + Send + Sync + 'static {
     fn filled(n: usize, value: L) -> Self;
     /// The storage of these numbers (as many as the storage holds), the vector's own memory
     /// where the storage is a vector.

@@ -2,14 +2,15 @@
 //! once and passed to every entry point instead of its description; `_core.Layout`: a problem's
 //! arrangement converted once (a wave equation's has tens of thousands of blocks and pairs).
 //! `_core.Method`: a method's per-coordinate numbers converted once (a wave equation's are eight
-//! rows of tens of thousands). All pickle as their descriptions, so a worker process builds them
+//! rows of tens of thousands). Layouts and methods are checked once, and a method keeps the
+//! kernels' rows made from it ([`trigint_core::prepared`]). All pickle as their descriptions, so a worker process builds them
 //! once per chunk as before.
 
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use trigint_core::{Layout, MethodCoefficients};
+use trigint_core::{PreparedLayout, PreparedMethod};
 
 use crate::convert;
 use crate::potential::{to_2d, values_and_forces, with_potential, NativePotential};
@@ -95,6 +96,17 @@ impl Handle {
     }
 }
 
+/// A layout converted once, whose checks then pass once for every run it is given to.
+fn prepared_layout(spec: &Bound<'_, PyDict>) -> PyResult<PreparedLayout> {
+    convert::layout(spec).map(PreparedLayout::new)
+}
+
+/// A method converted once, whose checks pass once per size and form and whose kernel rows
+/// are made once (kept for the next run).
+fn prepared_method(spec: &Bound<'_, PyDict>) -> PyResult<PreparedMethod> {
+    convert::method(spec).map(PreparedMethod::new)
+}
+
 /// A class holding a value converted once from its description dict (by `$convert`), pickled
 /// as the description, with the enum and function by which an entry point takes either it or a
 /// description (converted then, for that call).
@@ -167,8 +179,8 @@ converted_handle!(
     /// "pair_forms"}`), converted once.
     LayoutHandle,
     "Layout",
-    Layout,
-    convert::layout,
+    PreparedLayout,
+    prepared_layout,
     GivenLayout,
     given_layout
 );
@@ -178,8 +190,8 @@ converted_handle!(
     /// once.
     MethodHandle,
     "Method",
-    MethodCoefficients,
-    convert::method,
+    PreparedMethod,
+    prepared_method,
     GivenMethod,
     given_method
 );

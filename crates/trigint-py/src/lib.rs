@@ -83,7 +83,7 @@ fn integrate<'py>(
                 every: progress_every.max(1),
                 report: &mut report,
             };
-            with_potential!(pot, |p| trigint_core::integrate(
+            with_potential!(pot, |p| trigint_core::integrate_prepared(
                 p, lay, co, &q0, &p0, n_steps, form, record, control
             ))
         })

@@ -12,6 +12,8 @@
 //! the top of step n, so it is not carried from one step to the next) or q_n, p_n and g_n
 //! (one-step form, which needs g_n in two consecutive steps).
 
+use std::sync::Arc;
+
 use crate::channels::channel_count;
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
 use crate::energy::{Extremes, PairForms, Samples, Sums, FIRST_BLOCK, TOTAL};
@@ -82,8 +84,9 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     pub(super) ws: P::Workspace<L>,
     pub(super) form: Form,
     pub(super) record: Record,
-    pub(super) k: Coef<L, Sh::S<L>>,
-    pub(super) w: Weights<L, Sh::S<L>>,
+    /// The kernels' rows: made for this run, or kept by a [`PreparedMethod`](crate::prepared::PreparedMethod).
+    pub(super) k: Arc<Coef<L, Sh::S<L>>>,
+    pub(super) w: Arc<Weights<L, Sh::S<L>>>,
     pub(super) st: State<L, Sh>,
     pub(super) checkpoint: Checkpoint<L, Sh>,
     pub(super) good: Observed<L, Sh>,
@@ -98,17 +101,35 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     pub(super) active: LaneSet,
 }
 
+/// A bundle's kernel rows and energy weights, made for it or kept by a prepared method.
+pub type Rows<L, Sh> = (
+    Arc<Coef<L, <Sh as Shape>::S<L>>>,
+    Arc<Weights<L, <Sh as Shape>::S<L>>>,
+);
+
+/// The kernel rows and energy weights of `methods` on a layout's frequencies ω².
+pub fn rows<L: Real, Sh: Shape>(
+    sh: &Sh,
+    omega2: &[f64],
+    methods: &[&MethodCoefficients],
+) -> Rows<L, Sh> {
+    (
+        Arc::new(Coef::new(sh, methods)),
+        Arc::new(Weights::new(sh, omega2, methods)),
+    )
+}
+
 impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     /// Up to `L::LANES` trajectories (`methods`, `q0`, `p0` and `n_steps` per lane; lanes
-    /// beyond them repeat the last trajectory and are never reported). Everything is assumed
-    /// validated.
+    /// beyond them repeat the last trajectory and are never reported), with their kernel rows
+    /// and energy weights ([`rows`], or kept ones). Everything is assumed validated.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         sh: &'a Sh,
         pot: &'a P,
-        omega2: &[f64],
         form: Form,
         record: Record,
+        (k, w): Rows<L, Sh>,
         methods: &[&MethodCoefficients],
         q0: &[&[f64]],
         p0: &[&[f64]],
@@ -135,15 +156,15 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             ws: pot.workspace(),
             form,
             record,
-            k: Coef::new(sh, methods),
-            w: Weights::new(sh, omega2, methods),
+            k,
+            w,
             st,
             // (filled at the first check: zeros written here would only be overwritten)
             checkpoint: (
                 Sh::S::<L>::placeholder(),
                 Sh::S::<L>::placeholder(),
                 Sh::S::<L>::placeholder(),
-                Extremes::new(n_blocks, 0),
+                Extremes::placeholder(),
             ),
             good: Observed {
                 step: 0,
@@ -170,7 +191,6 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         self.pairs = pairs;
         self.axes = vec![L::zero(); axes];
         self.ext = Extremes::new(n_blocks, axes);
-        self.checkpoint.3 = Extremes::new(n_blocks, axes);
         self.good.blocks = vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 } + axes];
         for lane in &mut self.lanes {
             lane.initial = vec![f64::NAN; channel_count(n_blocks, axes)];

@@ -24,10 +24,11 @@ use crate::coefficients::MethodCoefficients;
 use crate::error::{CoreError, CoreResult};
 use crate::output::{Form, Record, TrajectoryOutput};
 use crate::potential::Potential;
+use crate::prepared::{PreparedLayout, PreparedMethod};
 use crate::real::{Real, Scalar};
 use crate::shape::{Fixed, Layout};
-pub use bundle::Bundle;
 pub(crate) use bundle::Lane;
+pub use bundle::{rows, Bundle, Rows};
 pub use drive::Control;
 pub(crate) use drive::{run, Stepper};
 pub use observe::state_energies;
@@ -134,6 +135,11 @@ pub(crate) fn check_state_rows(q: &[f64], p: &[f64], n: usize) -> CoreResult<()>
 
 fn check_common<P: Potential>(pot: &P, layout: &Layout, record: &Record) -> CoreResult<()> {
     layout.validate()?;
+    check_run(pot, layout, record)
+}
+
+/// The checks of a run beside the layout's own.
+fn check_run<P: Potential>(pot: &P, layout: &Layout, record: &Record) -> CoreResult<()> {
     pot.check_dim(layout.dim())?;
     if record.save_every == Some(0) {
         return Err(CoreError::invalid("save_every", "must be >= 1"));
@@ -206,8 +212,59 @@ pub fn integrate<P: Potential>(
     control: Control,
 ) -> CoreResult<TrajectoryOutput> {
     check_common(pot, layout, &record)?;
+    method.validate(layout.dim(), form == Form::TwoStep)?;
+    one_trajectory(
+        pot, layout, None, method, q0, p0, n_steps, form, record, control,
+    )
+}
+
+/// [`integrate`] with a layout and a method made once for many runs: their checks pass once,
+/// and the kernels' rows made from the method are kept for the next run (the same numbers).
+#[allow(clippy::too_many_arguments)]
+pub fn integrate_prepared<P: Potential>(
+    pot: &P,
+    layout: &PreparedLayout,
+    method: &PreparedMethod,
+    q0: &[f64],
+    p0: &[f64],
+    n_steps: u64,
+    form: Form,
+    record: Record,
+    control: Control,
+) -> CoreResult<TrajectoryOutput> {
+    layout.validate()?;
+    check_run(pot, layout, &record)?;
+    method.validate(layout.dim(), form == Form::TwoStep)?;
+    one_trajectory(
+        pot,
+        layout,
+        Some((layout, method)),
+        method,
+        q0,
+        p0,
+        n_steps,
+        form,
+        record,
+        control,
+    )
+}
+
+/// One checked trajectory, with the kernel rows and energy weights kept by a `prepared` method
+/// (for its layout), or made for this run.
+#[allow(clippy::too_many_arguments)]
+fn one_trajectory<P: Potential>(
+    pot: &P,
+    layout: &Layout,
+    prepared: Option<(&PreparedLayout, &PreparedMethod)>,
+    method: &MethodCoefficients,
+    q0: &[f64],
+    p0: &[f64],
+    n_steps: u64,
+    form: Form,
+    record: Record,
+    control: Control,
+) -> CoreResult<TrajectoryOutput> {
     let n = layout.dim();
-    method.validate(n, form == Form::TwoStep)?;
     check_state("q0", q0, n, "")?;
     check_state("p0", p0, n, "")?;
     if n_steps == 0 {
@@ -217,9 +274,12 @@ pub fn integrate<P: Potential>(
         let bundle = Bundle::<One, _, P>::new(
             sh,
             pot,
-            &layout.omega2,
             form,
             record,
+            match prepared {
+                Some((lay, m)) => (m.coef(sh), m.weights(sh, lay)),
+                None => rows(sh, &layout.omega2, &[method]),
+            },
             &[method],
             &[q0],
             &[p0],
@@ -275,9 +335,9 @@ pub fn integrate_batch<L: Real, P: Potential>(
                 let q: Vec<&[f64]> = ids.iter().map(|&t| &q0[t * n..(t + 1) * n]).collect();
                 let p: Vec<&[f64]> = ids.iter().map(|&t| &p0[t * n..(t + 1) * n]).collect();
                 let s: Vec<u64> = ids.iter().map(|&t| n_steps[t]).collect();
-                let bundle =
-                    Bundle::<L, _, P>::new(sh, pot, &layout.omega2, form, record, &m, &q, &p, &s)
-                        .with_pair_forms(layout.pair_forms.as_ref());
+                let rows = rows(sh, &layout.omega2, &m);
+                let bundle = Bundle::<L, _, P>::new(sh, pot, form, record, rows, &m, &q, &p, &s)
+                    .with_pair_forms(layout.pair_forms.as_ref());
                 Control::polling(stop, poll, |control| bundle.run(control))
             })
             .collect()

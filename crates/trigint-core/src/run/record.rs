@@ -76,9 +76,23 @@ impl<L: Real> LaneBook<'_, L> {
     /// run keeps no samples.
     #[inline(never)]
     pub fn keep(&mut self, b: usize, step: u64, q: &[L], p: &[L], row: Vec<f64>) {
-        let s = &mut self.lanes[b].samples;
-        if self.record.save_every.is_none() || s.steps.last() == Some(&step) {
+        let lane = &mut self.lanes[b];
+        let s = &mut lane.samples;
+        let Some(every) = self.record.save_every else {
             return;
+        };
+        if s.steps.last() == Some(&step) {
+            return;
+        }
+        if s.steps.is_empty() {
+            // Room for the samples of a short run (the first, every `every`-th, the last; at
+            // most 4: beyond, doubling makes the copies cheap), so that a call of a few steps
+            // does not copy them as they grow (1 MiB per growth at 2^16 coordinates).
+            let k = (lane.n_steps / every.max(1)).saturating_add(2).min(4) as usize;
+            s.steps.reserve_exact(k);
+            s.q.reserve_exact(k * q.len());
+            s.p.reserve_exact(k * p.len());
+            s.energies.reserve_exact(k * row.len());
         }
         s.steps.push(step);
         s.q.extend(q.iter().map(|x| x.lane(b)));

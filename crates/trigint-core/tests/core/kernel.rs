@@ -2,7 +2,7 @@
 //! shapes against each other (bit for bit), blow-up, interruption and bad input.
 
 use trigint_core::fixtures::{fpu_method_b, layout, sinc, trigonometric};
-use trigint_core::run::{Bundle, Control};
+use trigint_core::run::{rows, Bundle, Control};
 use trigint_core::shape::{Fixed, Shape};
 use trigint_core::*;
 
@@ -135,9 +135,9 @@ fn through<L: Real, Sh: Shape, P: Potential>(
     let b = Bundle::<L, Sh, P>::new(
         sh,
         pot,
-        &lay.omega2,
         form,
         record(7),
+        rows(sh, &lay.omega2, &[co]),
         &[co],
         &[q0],
         &[p0],

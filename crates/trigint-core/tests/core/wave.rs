@@ -78,3 +78,73 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
         .map(|c| x.max_deviation[c])
         .all(|d| d.is_finite() && d > 0.0));
 }
+
+#[test]
+fn a_prepared_layout_and_method_give_the_bits_of_a_plain_run_at_every_call() {
+    // The kernels' rows kept by the prepared method from the first call are the rows the
+    // second call would have made: the same bits, call after call; one-step form as well.
+    let n = 16;
+    let wave = Wave::new(&[n], &Chain::monomial(0.25, 4), (0..n).collect()).unwrap();
+    let j = wave.grid().wavevectors().to_vec();
+    let omega: Vec<f64> = j.iter().map(|&j| (1.0 + (j * j) as f64).sqrt()).collect();
+    let co = trigonometric(0.05, &omega, sinc, |x| sinc(x) * sinc(x));
+    let lay = layout(&omega);
+    let q0: Vec<f64> = (0..n).map(|i| 0.1 * ((i as f64) * 0.7).sin()).collect();
+    let p0: Vec<f64> = (0..n).map(|i| 0.05 * ((i as f64) * 1.3).cos()).collect();
+    let (plain_lay, plain_co) = (lay.clone(), co.clone());
+    let (lay, co) = (PreparedLayout::new(lay), PreparedMethod::new(co));
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for form in [Form::TwoStep, Form::OneStep, Form::TwoStep] {
+        let call = |prepared: bool| {
+            let mut go = |_| true;
+            let control = Control {
+                every: 1 << 20,
+                report: &mut go,
+            };
+            let record = Record {
+                save_every: Some(50),
+                track: true,
+            };
+            let (q, p) = (&q0[..], &p0[..]);
+            if prepared {
+                integrate_prepared(&wave, &lay, &co, q, p, 200, form, record, control)
+            } else {
+                integrate(
+                    &wave, &plain_lay, &plain_co, q, p, 200, form, record, control,
+                )
+            }
+            .unwrap()
+        };
+        let (x, y) = (call(true), call(false));
+        assert_eq!(x.steps_done, 200);
+        assert_eq!(bits(&x.samples.q), bits(&y.samples.q));
+        assert_eq!(bits(&x.samples.p), bits(&y.samples.p));
+        assert_eq!(bits(&x.max_deviation), bits(&y.max_deviation));
+    }
+    // A state of another size is refused as before (the method's rows are checked per size).
+    let mut go = |_| true;
+    let control = Control {
+        every: 1,
+        report: &mut go,
+    };
+    let record = Record {
+        save_every: None,
+        track: false,
+    };
+    let short = &q0[..n - 1];
+    let e = integrate_prepared(
+        &wave,
+        &lay,
+        &co,
+        short,
+        short,
+        5,
+        Form::TwoStep,
+        record,
+        control,
+    );
+    assert!(e
+        .unwrap_err()
+        .to_string()
+        .contains("15 entries for 16 coordinates"));
+}
