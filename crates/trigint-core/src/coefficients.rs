@@ -210,6 +210,9 @@ fn each(a: &[f64], g: impl Fn(f64) -> f64) -> Vec<f64> {
 }
 
 impl<L: Real, S: Storage<L>> Coef<L, S> {
+    /// Its per-coordinate rows (`omc` … `half_h_psi1`).
+    pub const ROWS: usize = 10;
+
     /// The kernel numbers of up to `L::LANES` trajectories (validated beforehand).
     pub fn new<Sh: Shape<S<L> = S>>(sh: &Sh, methods: &[&MethodCoefficients]) -> Self {
         // each row's arithmetic in the order it always had (the same bits): (h·h)·ψ_i, …
@@ -291,6 +294,9 @@ impl<L: Real, S: Storage<L>> Coef<L, S> {
 }
 
 impl<L: Real, S: Storage<L>> Weights<L, S> {
+    /// Its per-coordinate rows (`omega2`, `modified_p`, `modified_q`).
+    pub const ROWS: usize = 3;
+
     pub fn new<Sh: Shape<S<L> = S>>(
         sh: &Sh,
         omega2: &[f64],

@@ -8,7 +8,7 @@
 
 use std::any::{Any, TypeId};
 use std::ops::Deref;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
@@ -61,14 +61,38 @@ type Key = (TypeId, usize, usize, Option<u64>);
 /// Rows kept per method: a method handle is used with one layout, in one or two forms.
 const KEPT: usize = 8;
 
+/// Bytes of rows kept by all prepared methods of the process together. Beyond [`BUDGET`] a
+/// method makes its rows for each run, as an unprepared one does: a 3-D grid of 2^21 points
+/// has 16 MiB rows, and the Python layer keeps up to four methods per problem.
+static KEPT_BYTES: AtomicUsize = AtomicUsize::new(0);
+const BUDGET: usize = 256 << 20;
+
+/// A place in the budget for `bytes`, or None when it is spent.
+fn reserve(bytes: usize) -> Option<usize> {
+    KEPT_BYTES
+        .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |held| {
+            held.checked_add(bytes).filter(|&t| t <= BUDGET)
+        })
+        .ok()
+        .map(|_| bytes)
+}
+
+fn release(bytes: usize) {
+    KEPT_BYTES.fetch_sub(bytes, Ordering::Relaxed);
+}
+
+/// Kept rows: their key, the rows, the bytes they hold of the budget.
+type Kept = (Key, Arc<dyn Any + Send + Sync>, usize);
+
 /// A [`MethodCoefficients`] whose checks run once per coordinate count and form, with the
 /// kernels' rows ([`Coef`]) and the energy weights ([`Weights`]) made once per lane type and
-/// shape and kept (about 1.6 times the method's own memory).
+/// shape and kept (about 1.6 times the method's own memory; all methods together at most
+/// 256 MiB).
 pub struct PreparedMethod {
     method: MethodCoefficients,
     /// The (n, two-step) for which [`MethodCoefficients::validate`] passed.
     passed: Mutex<Vec<(usize, bool)>>,
-    rows: Mutex<Vec<(Key, Arc<dyn Any + Send + Sync>)>>,
+    rows: Mutex<Vec<Kept>>,
 }
 
 impl PreparedMethod {
@@ -94,7 +118,8 @@ impl PreparedMethod {
     /// The kernels' rows for one trajectory of shape `sh`, made at the first run of this lane
     /// type and shape and shared after (the same numbers: [`Coef::new`] on this method).
     pub(crate) fn coef<L: Real, Sh: Shape>(&self, sh: &Sh) -> Arc<Coef<L, Sh::S<L>>> {
-        self.kept(sh, None, || Coef::new(sh, &[&self.method]))
+        let bytes = Coef::<L, Sh::S<L>>::ROWS * sh.n() * std::mem::size_of::<L>();
+        self.kept(sh, None, bytes, || Coef::new(sh, &[&self.method]))
     }
 
     /// The energy weights for one trajectory of shape `sh` on `layout`, made once ([`Weights::new`]).
@@ -103,30 +128,44 @@ impl PreparedMethod {
         sh: &Sh,
         layout: &PreparedLayout,
     ) -> Arc<Weights<L, Sh::S<L>>> {
-        self.kept(sh, Some(layout.id), || {
+        let bytes = Weights::<L, Sh::S<L>>::ROWS * sh.n() * std::mem::size_of::<L>();
+        self.kept(sh, Some(layout.id), bytes, || {
             Weights::new(sh, &layout.omega2, &[&self.method])
         })
     }
 
+    /// The rows under `key`, or `make()`'s, kept while the budget has room for their `bytes`.
     fn kept<T: Any + Send + Sync, Sh: Shape>(
         &self,
         sh: &Sh,
         layout: Option<u64>,
+        bytes: usize,
         make: impl FnOnce() -> T,
     ) -> Arc<T> {
         let key = (TypeId::of::<T>(), sh.n(), sh.ns(), layout);
         let mut rows = self.rows.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, kept)) = rows.iter().find(|(k, _)| *k == key) {
+        if let Some((_, kept, _)) = rows.iter().find(|(k, _, _)| *k == key) {
             if let Ok(rows) = Arc::clone(kept).downcast::<T>() {
                 return rows;
             }
         }
         let made = Arc::new(make());
         if rows.len() >= KEPT {
-            rows.remove(0);
+            release(rows.remove(0).2);
         }
-        rows.push((key, made.clone()));
+        if let Some(held) = reserve(bytes) {
+            rows.push((key, made.clone(), held));
+        }
         made
+    }
+}
+
+impl Drop for PreparedMethod {
+    fn drop(&mut self) {
+        let rows = self.rows.get_mut().unwrap_or_else(|e| e.into_inner());
+        for (_, _, held) in rows.drain(..) {
+            release(held);
+        }
     }
 }
 
@@ -159,6 +198,32 @@ mod tests {
         assert!(m.validate(4, true).is_err());
         assert!(m.validate(5, false).is_err());
         assert_eq!(*m.passed.lock().unwrap(), vec![(4, false)]);
+    }
+
+    #[test]
+    fn rows_beyond_the_budget_are_made_per_run_and_a_dropped_method_gives_its_place_back() {
+        // Rows that claim most of the budget (the claim is what counts, not what they hold).
+        let sh = Layout {
+            omega2: vec![1.0; 4],
+            n_slow: 0,
+            block_ends: vec![4],
+            pair_forms: None,
+        }
+        .dynamic();
+        let big = BUDGET * 3 / 4;
+        let (a, b) = (
+            PreparedMethod::new(method(4)),
+            PreparedMethod::new(method(4)),
+        );
+        let kept = a.kept(&sh, None, big, || 1u32);
+        assert!(Arc::ptr_eq(&kept, &a.kept(&sh, None, big, || 2u32)));
+        // b's do not fit beside a's: made at each run
+        assert_eq!(*b.kept(&sh, None, big, || 3u32), 3);
+        assert_eq!(*b.kept(&sh, None, big, || 4u32), 4);
+        drop(a);
+        // a's place given back: b keeps its rows now
+        assert_eq!(*b.kept(&sh, None, big, || 5u32), 5);
+        assert_eq!(*b.kept(&sh, None, big, || 6u32), 5);
     }
 
     #[test]
