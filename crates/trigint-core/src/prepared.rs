@@ -243,6 +243,15 @@ mod tests {
         assert_eq!(a.h2_psi, fresh.h2_psi);
         assert_eq!(a.inv_2h_chi, fresh.inv_2h_chi);
         // the weights are kept per layout: another layout of the same size gets its own
+        let mut bad = lay.clone();
+        bad.block_ends = vec![2, 1, 4];
+        let bad = PreparedLayout::new(bad);
+        let said = bad.validate().unwrap_err().to_string();
+        assert!(
+            said.contains("block ends [2, 1, 4] must increase"),
+            "{said}"
+        );
+        assert_eq!(bad.validate().unwrap_err().to_string(), said); // refused at every call
         let (one, two) = (PreparedLayout::new(lay.clone()), PreparedLayout::new(lay));
         assert!(one.validate().is_ok() && one.validate().is_ok());
         let w1 = m.weights::<f64, _>(&sh, &one);
