@@ -39,6 +39,7 @@ test-python: install
 lint: install
 	cargo fmt --all --check
 	cargo clippy --release --workspace --all-targets -- -D warnings
+	RUSTDOCFLAGS="-D warnings" cargo doc --release -p trigint-core --no-deps
 	$(VENV)/bin/ruff check python tests examples benchmarks
 
 # The main job: the paper's Figures 1-5 at full resolution, their data and the measured claims.

@@ -6,7 +6,7 @@
 //! from the observing sweep's sums ([`crate::energy::Sums::channels`]).
 //!
 //! A new whole-state channel that combines the sweep's sums is one entry here. One that needs a
-//! new per-coordinate form is an entry here, a [`Sum`] index and its term in the sweep
+//! new per-coordinate form is an entry here, a [`sum`] index and its term in the sweep
 //! ([`crate::energy`], `recursion/mod.rs`). A bilinear form Σ w (q_a p_b − q_b p_a) such as a
 //! momentum is a [`crate::energy::PairForms`] that the problem's layout carries (the momentum
 //! entry below is nothing more).
@@ -30,7 +30,7 @@ pub mod sum {
 }
 
 /// A whole-state channel's value from the sweep's sums s and the potential U:
-/// ½ s[halves[0]] + (½ s[halves[1]] + (… + U)), the innermost term U only with `potential`.
+/// ½ s\[halves\[0\]\] + (½ s\[halves\[1\]\] + (… + U)), the innermost term U only with `potential`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Value {
     /// The sums taken, each halved, added from the last to the first.

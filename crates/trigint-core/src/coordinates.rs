@@ -63,9 +63,9 @@ pub enum CoordinateMap {
         n: usize,
     },
     Permuted {
-        /// core coordinate k is user coordinate perm[k]
+        /// core coordinate k is user coordinate `perm[k]`
         perm: Vec<usize>,
-        /// user coordinate i is core coordinate inverse[i]
+        /// user coordinate i is core coordinate `inverse[i]`
         inverse: Vec<usize>,
     },
     Modal {
@@ -75,7 +75,7 @@ pub enum CoordinateMap {
     },
     Fourier {
         grid: Arc<Spectral>,
-        /// core coordinate k is the grid's coordinate order[k]
+        /// core coordinate k is the grid's coordinate `order[k]`
         order: Vec<usize>,
         /// a workspace kept for the next call (calls that overlap make their own)
         kept: Mutex<Option<SpectralWorkspace>>,
@@ -109,7 +109,7 @@ fn checked_permutation(order: Vec<usize>, n: usize, what: &'static str) -> CoreR
 }
 
 impl CoordinateMap {
-    /// The map of `perm` (core coordinate k is user coordinate perm[k]): the identity when it
+    /// The map of `perm` (core coordinate k is user coordinate `perm[k]`): the identity when it
     /// is one.
     pub fn permuted(perm: Vec<usize>) -> CoreResult<Self> {
         let n = perm.len();

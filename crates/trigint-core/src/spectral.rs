@@ -357,7 +357,7 @@ impl Spectral {
     }
 
     /// u = S q for each row of `q` (N numbers per row) into the rows of `u`; with `order`, a
-    /// row's coordinate k is the grid's coordinate order[k] (a permutation, checked by the
+    /// row's coordinate k is the grid's coordinate `order[k]` (a permutation, checked by the
     /// caller).
     pub fn rows_to_grid(
         &self,

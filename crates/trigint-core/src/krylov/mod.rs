@@ -1,5 +1,5 @@
 //! The Krylov path: a large sparse stiffness matrix A (no eigenvectors stored), every matrix
-//! function of h√A applied by the Lanczos method ([`lanczos`]), the one-step form of any method
+//! function of h√A applied by the Lanczos method (`lanczos`), the one-step form of any method
 //! (GNI XIII (2.7)–(2.9)):
 //!
 //!   q_{n+1} = q_n − (1 − c)q_n + hχ p_n + ½h²ψ g_n,
@@ -55,7 +55,7 @@ fn energies(a: &Csr, scratch: &mut [f64], q: &[f64], p: &[f64], u: f64) -> [f64;
     sums.channels(u, false)
 }
 
-/// The main channels (see [`energies`]) of each state (rows of `q`, `p`, n values each): what
+/// The main channels (see `energies`) of each state (rows of `q`, `p`, n values each): what
 /// `ti.energies` reports on the Krylov path, computed as a run computes them.
 pub fn state_energies<P: Potential>(
     a: &Csr,

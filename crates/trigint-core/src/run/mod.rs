@@ -1,8 +1,9 @@
-//! The entry points: [`integrate`] (one trajectory) and [`integrate_batch`] (many, in bundles of
-//! lanes on a rayon pool). Both validate, choose the shape (compile-time sizes for small
+//! The entry points: [`integrate`] (one trajectory; [`integrate_prepared`] with a layout and a
+//! method made once for many runs) and [`integrate_batch`] (many, in bundles of lanes on a
+//! rayon pool). Both validate, choose the shape (compile-time sizes for small
 //! problems) and the instruction set, and run [`Bundle`]s: one run loop for both.
 //!
-//! The run loop: `drive` (the [`Stepper`] trait and the driver from event to event, with
+//! The run loop: `drive` (the `Stepper` trait and the driver from event to event, with
 //! checkpoints and replay), `record` (what a careful step records: the one record policy),
 //! `bundle` (the recursion's stepper), `hot` and `lanes` (its tight loops).
 
