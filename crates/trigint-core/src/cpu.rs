@@ -46,6 +46,26 @@ pub fn features() -> Vec<&'static str> {
     out
 }
 
+/// Whether the CPU is AMD's (CPUID's vendor string "AuthenticAMD"). AMD's cores pay nothing for
+/// mixing legacy-SSE and VEX-encoded code (Intel's may: see `isa::run`), so there the baseline
+/// copy is one more candidate for the planner.
+pub fn is_amd() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::__cpuid;
+        let r = __cpuid(0);
+        let mut vendor = Vec::with_capacity(12);
+        for word in [r.ebx, r.edx, r.ecx] {
+            vendor.extend_from_slice(&word.to_le_bytes());
+        }
+        vendor == b"AuthenticAMD"
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// A hash of the model and the features (FNV-1a: the same on every build), so that machines
 /// that share a home directory keep their plans apart.
 pub fn fingerprint() -> u64 {
