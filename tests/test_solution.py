@@ -114,3 +114,24 @@ def test_ctrl_c_interrupts_a_long_run(tmp_path):
     last = 1 if int(steps) % 10**6 else 0
     assert status == "interrupted" and int(steps) > 0 and int(samples) == int(steps) // 10**6 + 1 + last
     assert "interrupted after step" in err
+
+
+def test_energies_built_when_read_survive_pickling_and_a_wave_problem():
+    """The Dataset of energies is made when first read (a short call's fixed cost): a solution
+    pickled before that reads the same numbers as one read at once, a wave problem's actions
+    included, and both hold the streamed channels at the samples."""
+    import pickle
+
+    prob = ti.problems.wave(64, rho=1.0, potential="u**4/4")
+    (x,) = prob.grid
+    sol = ti.integrate(prob, "B", 0.3 * np.cos(x), 0 * x, h=0.05, n_steps=40, save_every=20)
+    early = pickle.loads(pickle.dumps(sol))
+    read = sol.energies
+    assert sol.energies is read  # built once
+    late = early.energies
+    assert list(late.data_vars) == list(read.data_vars)
+    for name in read.data_vars:
+        assert np.array_equal(late[name].values, read[name].values)
+    assert late["action"].dims == ("t", "mode") and late.sizes["t"] == 3
+    # the streamed total at the first sample is the initial energy, bit for bit
+    assert float(read["total"][0]) == sol.initial_energies["total"]

@@ -15,7 +15,7 @@ from .methods import Method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 from .saveat import MAX_STEPS, SaveAt, check_steps
-from .solution import Channels, Solution
+from .solution import Channels, Deferred, Solution
 
 FORMS = ("two-step", "one-step")
 #: progress reports (and Ctrl-C checks) every this many steps; ~10 ms for native potentials
@@ -210,13 +210,13 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
                       RuntimeWarning, stacklevel=3)
     steps = samples["steps"].astype(np.int64)
     t = steps * h
-    energies = problem.energy_dataset(names, samples["energies"], coords={"t": t, "step": ("t", steps)},
-                                      attrs={"method": repr(method), "h": h})
+    energies = Deferred(problem.energy_dataset, names, samples["energies"], {"t": t, "step": ("t", steps)},
+                        {"method": repr(method), "h": h})
     status, message = out.status[0], out.messages[0]
     if status != "completed":
         warnings.warn(message, RuntimeWarning, stacklevel=3)
     return Solution(
-        t=t, q=samples["q"], p=samples["p"], steps=steps, energies=energies,
+        t=t, q=samples["q"], p=samples["p"], steps=steps, _energies=energies,
         max_deviation=Channels.of(names, index, max_deviation),
         initial_energies=Channels.of(names, index, initial_energies),
         h=h, n_steps=int(out.steps_done[0]), n_steps_requested=n_steps,

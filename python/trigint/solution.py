@@ -92,6 +92,22 @@ def _number(v) -> str:
         return repr(v)
 
 
+class Deferred:
+    """A value made when first asked for: ``Deferred(f, *args)()`` is ``f(*args)``. Picklable
+    when `f` and `args` are (a problem's bound method and arrays)."""
+
+    __slots__ = ("make", "args")
+
+    def __init__(self, make, *args):
+        self.make, self.args = make, args
+
+    def __call__(self):
+        return self.make(*self.args)
+
+    def __reduce__(self):
+        return (Deferred, (self.make, *self.args))
+
+
 @dataclass(frozen=True)
 class Solution:
     """A numerical solution, sampled at steps 0, s, 2s, … and the last step.
@@ -146,7 +162,8 @@ class Solution:
     q: np.ndarray
     p: np.ndarray
     steps: np.ndarray
-    energies: xr.Dataset
+    #: the energies' Dataset, or what builds it when `energies` is first read
+    _energies: object = field(repr=False)
     max_deviation: Mapping
     initial_energies: Mapping
     h: float
@@ -157,6 +174,17 @@ class Solution:
     method: object = field(repr=False)
     problem: object = field(repr=False)
     info: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def energies(self) -> xr.Dataset:
+        """Every energy over ``t`` at the samples (see the class's attributes). Built when first
+        read: a short call on a large problem spends a millisecond on it (a 2¹⁶-point wave
+        equation), which a loop of calls that reads only the states need not pay."""
+        built = self._energies
+        if isinstance(built, Deferred):
+            built = built()
+            object.__setattr__(self, "_energies", built)
+        return built
 
     @property
     def success(self) -> bool:

@@ -26,7 +26,9 @@ pub(crate) struct LaneBook<'a, L: Real> {
     pub plain_modified: bool,
 }
 
-/// The last observed (good) state of a bundle, as lane values.
+/// The last observed (good) state of a bundle, as lane values: the state and channels of
+/// `step`, except where every running lane already keeps a sample of `step` or keeps none
+/// (then they are older and never read: [`LaneBook::keep`] returns first).
 pub(crate) struct Good<'a, L> {
     pub step: u64,
     pub q: &'a [L],
@@ -271,6 +273,17 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             lanes.observe(i, state, main, blocks, event, &good);
         }
         self.good.step = i;
+        // The last good state is read only to keep it as a lane's last sample, which `keep`
+        // skips where the lane keeps no samples or has one of this step already: then the
+        // copies (at 2^16 coordinates 1.25 MiB per observation) are not made.
+        let every_lane_has_it = self.record.save_every.is_none()
+            || self
+                .active
+                .iter()
+                .all(|b| self.lanes[b].samples.steps.last() == Some(&i));
+        if every_lane_has_it {
+            return;
+        }
         self.good.q.get_mut().copy_from_slice(self.st.q.get());
         self.good.p.get_mut().copy_from_slice(self.st.p.get());
         self.good.main = *main;
