@@ -101,7 +101,7 @@ def check_class(cls, where: str) -> None:
     parameters = names_of(doc["Parameters"])
     if dataclasses.is_dataclass(cls):
         # a result type: what users read are its fields and properties
-        wanted = [f.name for f in dataclasses.fields(cls)]
+        wanted = [f.name for f in dataclasses.fields(cls) if not f.name.startswith("_")]
         wanted += [n for n, m in vars(cls).items() if isinstance(m, property) and not n.startswith("_")]
         missing = sorted(set(wanted) - set(attributes) - set(parameters))
         assert not missing, f"{where}: fields without a description: {missing}"
