@@ -199,7 +199,7 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
     names, index = _native.channel_index(problem.n_blocks, problem.n_axes)
     samples = out.samples[0]
     max_deviation, initial_energies = out.max_deviation[0], out.initial_energies[0]
-    if co is not None and not np.all(np.isfinite(co.modified_p)):
+    if co is not None and not _modified_is_finite(problem, co):
         # one-step form at hω = kπ with a filter whose σ has no limit there (E, A)
         k = index["modified_oscillatory"]
         samples["energies"][:, k] = np.nan
@@ -223,6 +223,13 @@ def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
         status=status, message=message, method=method, problem=problem,
         info=dict(out.info),
     )
+
+
+def _modified_is_finite(problem, co) -> bool:
+    """Whether the modified energy's weights of `co` are finite, kept on the problem with the
+    coefficients (a scan of 2¹⁶ weights at every call otherwise)."""
+    return _native.kept_on(problem, "_modified_finite", id(co), co,
+                           lambda: bool(np.all(np.isfinite(co.modified_p))))
 
 
 def resolve_steps(h: float, t_end, n_steps) -> int:
