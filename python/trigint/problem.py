@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from . import _check, _stiffness
+from . import _check, _native, _stiffness
 from ._steppers import KRYLOV, RECURSION
 from ._stiffness import Frequencies
 from .potentials import Potential
@@ -233,10 +233,8 @@ class OscillatoryProblem:
             return 1
         # Kept with the (read-only) array it was read from: a 2¹⁶-point wave problem's blocks
         # took 0.1 ms to scan, twice a call.
-        kept = self.__dict__.get("_n_blocks_kept")
-        if kept is None or kept[0] is not self.blocks:
-            kept = self.__dict__["_n_blocks_kept"] = (self.blocks, int(self.blocks.max(initial=0)))
-        return kept[1]
+        return _native.kept_on(self, "_n_blocks_kept", id(self.blocks), self.blocks,
+                               lambda: int(self.blocks.max(initial=0)))
 
     @property
     def block_frequencies(self) -> np.ndarray:
