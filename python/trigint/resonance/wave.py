@@ -225,7 +225,7 @@ def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05,
     relative = energies / total
     carrying = relative >= floor
     h = step_size(h)
-    omega, modes = problem.mode_frequencies, problem.modes
+    omega, modes = problem.mode_frequencies, mode_list(problem)
     ranked: dict = {}
 
     def keep(r: WaveResonance):
@@ -239,7 +239,7 @@ def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05,
     alone = np.abs(np.sin(h * omega[drivers]))
     for b, d in zip(drivers, alone, strict=True):
         if d < tolerance and h * omega[b] >= np.pi / 2:
-            m = tuple(int(c) for c in modes[b])
+            m = modes[b]
             keep(WaveResonance((m,), (1,), float(omega[b]), float(d), m, float(relative[b]) / max(float(d), 1e-300)))
     # Triples j = k ± l driven by two modes that carry energy (the most energetic max_modes).
     drivers = drivers[np.argsort(-relative[drivers], kind="stable")][: int(max_modes)]
@@ -247,7 +247,7 @@ def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05,
         e = relative[[c, a, b]]
         least = (c, a, b)[int(np.argmin(e))]
         top = np.sort(e)[-2:]
-        keep(WaveResonance(wavevectors, signs, combo, dist, tuple(int(x) for x in modes[least]),
+        keep(WaveResonance(wavevectors, signs, combo, dist, modes[least],
                            float(np.sqrt(top[0] * top[1])) / max(dist, 1e-300)))
     ranked = list(ranked.values())
     return sorted(ranked, key=lambda r: -r.weight)
