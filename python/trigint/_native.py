@@ -87,6 +87,22 @@ class CoreLayout:
         x = np.asarray(x, dtype=float)
         return x if self.map.is_identity else self.map.to_user(x)
 
+    def samples_to_user(self, steps: np.ndarray, x: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        """A trajectory's samples (rows, core coordinates) in the user's coordinates. The sample
+        of step 0 is the state the run started from, so it is `x0` as the user gave it (user
+        coordinates): no transform back, whose result would differ from it by rounding and, on
+        a large wave grid, cost as much as a step."""
+        x = np.asarray(x, dtype=float)
+        if self.map.is_identity:
+            return x
+        if len(steps) == 0 or int(steps[0]) != 0:
+            return self.map.to_user(x)
+        # (into x itself, the core's fresh array: a new one would be mapped page by page)
+        if len(x) > 1:
+            x[1:] = self.map.to_user(x[1:])
+        x[0] = x0
+        return x
+
     def rows_to_core(self, x: np.ndarray) -> np.ndarray:
         """Per-coordinate numbers (a method's rows, listed like the problem's frequencies) in
         the core's order: only a permutation moves them."""
@@ -282,7 +298,7 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
         int(every), callback,
     )
     s = out.samples[0]
-    s["q"], s["p"] = lay.to_user(s["q"]), lay.to_user(s["p"])
+    s["q"], s["p"] = lay.samples_to_user(s["steps"], s["q"], q0), lay.samples_to_user(s["steps"], s["p"], p0)
     return out
 
 

@@ -65,9 +65,9 @@ class Recursion:
             rows["n_steps"], save_every, form, track, threads,
         )
         if order is not None and out.samples is not None:
-            for s in out.samples:
-                s["q"] = order.to_user(s["q"])
-                s["p"] = order.to_user(s["p"])
+            for s, q0, p0 in zip(out.samples, np.atleast_2d(rows["q0"]), np.atleast_2d(rows["p0"]), strict=True):
+                s["q"] = order.samples_to_user(s["steps"], s["q"], q0)
+                s["p"] = order.samples_to_user(s["steps"], s["p"], p0)
         return out
 
     def run_one(self, problem, method, co, h: float, q0, p0, n_steps: int, save_every: int, form: str,

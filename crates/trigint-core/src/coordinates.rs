@@ -77,6 +77,10 @@ pub enum CoordinateMap {
         grid: Arc<Spectral>,
         /// core coordinate k is the grid's coordinate `order[k]`
         order: Vec<usize>,
+        /// `order` is the identity (a 1-D grid's frequencies are in the grid's order): the
+        /// transforms read and write the rows in place of a permutation pass, which cost 40%
+        /// of a transform on 2¹⁶ points
+        in_grid_order: bool,
         /// a workspace kept for the next call (calls that overlap make their own)
         kept: Mutex<Option<SpectralWorkspace>>,
     },
@@ -150,6 +154,7 @@ impl CoordinateMap {
         let order = checked_permutation(order, grid.points(), "order")?;
         Ok(CoordinateMap::Fourier {
             grid,
+            in_grid_order: order.iter().enumerate().all(|(k, &i)| k == i),
             order,
             kept: Mutex::new(None),
         })
@@ -193,9 +198,15 @@ impl CoordinateMap {
             CoordinateMap::Identity { .. } => out.copy_from_slice(x),
             CoordinateMap::Permuted { perm, .. } => gather(x, out, perm),
             CoordinateMap::Modal { n, basis, .. } => rows_times(x, basis, *n, *n, out),
-            CoordinateMap::Fourier { grid, order, kept } => {
+            CoordinateMap::Fourier {
+                grid,
+                order,
+                in_grid_order,
+                kept,
+            } => {
                 let mut ws = take(kept, grid);
-                grid.rows_from_grid(Some(order), x, out, &mut ws);
+                let order = (!in_grid_order).then_some(&order[..]);
+                grid.rows_from_grid(order, x, out, &mut ws);
                 keep(kept, ws);
             }
         }
@@ -208,9 +219,15 @@ impl CoordinateMap {
             CoordinateMap::Identity { .. } => out.copy_from_slice(x),
             CoordinateMap::Permuted { inverse, .. } => gather(x, out, inverse),
             CoordinateMap::Modal { n, basis } => rows_times_transposed(x, basis, *n, out),
-            CoordinateMap::Fourier { grid, order, kept } => {
+            CoordinateMap::Fourier {
+                grid,
+                order,
+                in_grid_order,
+                kept,
+            } => {
                 let mut ws = take(kept, grid);
-                grid.rows_to_grid(Some(order), x, out, &mut ws);
+                let order = (!in_grid_order).then_some(&order[..]);
+                grid.rows_to_grid(order, x, out, &mut ws);
                 keep(kept, ws);
             }
         }

@@ -117,6 +117,7 @@ impl std::fmt::Debug for Spectral {
 }
 
 /// Scratch of the two transforms (complex half spectrum and FFT scratch).
+#[derive(Default)]
 pub struct SpectralWorkspace {
     half: Vec<Complex64>,
     line: Vec<Complex64>,

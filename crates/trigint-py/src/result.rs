@@ -152,12 +152,23 @@ pub fn from_outputs(
     interrupted: bool,
     interrupted_by: Option<String>,
 ) -> PyResult<RunResult> {
+    let mut out = out;
     let count = out.len();
-    let flat = |f: fn(&TrajectoryOutput) -> &Vec<f64>| -> Vec<f64> {
-        out.iter().flat_map(|o| f(o).iter().copied()).collect()
+    // (one trajectory's rows are moved, not copied: a wave has a channel per mode)
+    let mut flat = |f: fn(&mut TrajectoryOutput) -> &mut Vec<f64>| -> Vec<f64> {
+        match &mut out[..] {
+            [one] => std::mem::take(f(one)),
+            all => {
+                let mut rows = Vec::with_capacity(all.len() * c);
+                for o in all.iter_mut() {
+                    rows.extend_from_slice(f(o));
+                }
+                rows
+            }
+        }
     };
-    let initial = to_2d(py, flat(|o| &o.initial_energies), count, c)?;
-    let deviation = to_2d(py, flat(|o| &o.max_deviation), count, c)?;
+    let initial = to_2d(py, flat(|o| &mut o.initial_energies), count, c)?;
+    let deviation = to_2d(py, flat(|o| &mut o.max_deviation), count, c)?;
     let status = out.iter().map(|o| o.status.as_str().to_string()).collect();
     let steps = PyArray1::from_vec(py, out.iter().map(|o| o.steps_done).collect());
     let mut messages = Vec::with_capacity(count);

@@ -6,7 +6,7 @@
 //! Lanes are stepped one after the other through the same f64 code, so a trajectory has the
 //! same bits alone and in a bundle.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use super::compiled::{Program, ProgramSpec};
 use super::{Potential, Scratch};
@@ -27,15 +27,53 @@ pub struct Wave {
     order: Vec<usize>,
     /// `order` is the identity (a problem ordered as the grid's coordinates): plain copies.
     identity: bool,
+    /// The workspace of the last run, kept for the next (runs that overlap make their own):
+    /// 2.5 MB on 2¹⁶ points, zeroed anew by every call otherwise. Every buffer of it is written
+    /// before it is read (the transforms' outputs, V over all points, the gather of a whole
+    /// lane; the interpreter's registers hold the program's constants and what each tile
+    /// writes), so what an earlier run left in it changes no bit.
+    kept: Kept,
 }
 
+/// A [`Wave`]'s kept workspace.
+#[derive(Default)]
+struct Kept(Arc<Mutex<Option<WaveWorkspace>>>);
+
+impl std::fmt::Debug for Kept {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Kept")
+    }
+}
+
+#[derive(Default)]
 pub struct WaveWorkspace {
     /// One lane's Fourier coordinates (unused when the kernel's state is read in place).
     fourier: Vec<f64>,
     grid: GridWorkspace,
+    /// Where it goes back when dropped (None: nowhere, or it is the kept one).
+    home: Option<Arc<Mutex<Option<WaveWorkspace>>>>,
+}
+
+impl Drop for WaveWorkspace {
+    fn drop(&mut self) {
+        let Some(home) = self.home.take() else {
+            return;
+        };
+        let back = WaveWorkspace {
+            fourier: std::mem::take(&mut self.fourier),
+            grid: std::mem::take(&mut self.grid),
+            home: None,
+        };
+        if let Ok(mut kept) = home.lock() {
+            if kept.is_none() {
+                *kept = Some(back);
+            }
+        };
+    }
 }
 
 /// The grid values and transform scratch of one evaluation.
+#[derive(Default)]
 struct GridWorkspace {
     u: Vec<f64>,
     g: Vec<f64>,
@@ -83,7 +121,24 @@ impl Wave {
             grid,
             identity: order.iter().enumerate().all(|(k, &i)| k == i),
             order,
+            kept: Kept::default(),
         })
+    }
+
+    /// A new workspace, with a Fourier buffer of `fourier` numbers.
+    fn new_workspace(&self, fourier: usize) -> WaveWorkspace {
+        let n = self.grid.points();
+        WaveWorkspace {
+            fourier: vec![0.0; fourier],
+            grid: GridWorkspace {
+                u: vec![0.0; n],
+                g: vec![0.0; n],
+                values: vec![0.0; n],
+                registers: self.v.tile_registers::<f64>(TILE),
+                fft: self.grid.workspace(),
+            },
+            home: None,
+        }
     }
 
     pub fn grid(&self) -> &Spectral {
@@ -157,23 +212,18 @@ impl Potential for Wave {
 
     fn workspace<L: Real>(&self) -> WaveWorkspace {
         let n = self.grid.points();
-        WaveWorkspace {
-            fourier: vec![
-                0.0;
-                if self.in_place::<L>(&[]).is_some() {
-                    0
-                } else {
-                    n
-                }
-            ],
-            grid: GridWorkspace {
-                u: vec![0.0; n],
-                g: vec![0.0; n],
-                values: vec![0.0; n],
-                registers: self.v.tile_registers::<f64>(TILE),
-                fft: self.grid.workspace(),
-            },
-        }
+        let fourier = if self.in_place::<L>(&[]).is_some() {
+            0
+        } else {
+            n
+        };
+        let kept = self.kept.0.lock().ok().and_then(|mut k| k.take());
+        let mut ws = match kept {
+            Some(ws) if ws.fourier.len() == fourier => ws,
+            _ => self.new_workspace(fourier),
+        };
+        ws.home = Some(Arc::clone(&self.kept.0));
+        ws
     }
 
     fn force<L: Real>(

@@ -71,6 +71,30 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
         Self::from_rows(|| Sh::S::<L>::filled(sh.n(), L::zero()))
     }
 
+    /// The rows a bundle stepping in this form reads, zeroed; the others own no memory (on a
+    /// 2¹⁶-point wave, three 512 KiB rows a call does not zero). φq's scratch `x` is read only
+    /// where φ is not the identity; `q_next` by the one-step form, and by the lane loop as U's
+    /// scratch where φ is not the identity; `f_prev` by the one-step form only.
+    pub fn for_steps(sh: &Sh, one_step: bool, phi_is_identity: bool) -> Self {
+        let row = |read: bool| {
+            if read {
+                Sh::S::<L>::filled(sh.n(), L::zero())
+            } else {
+                Sh::S::<L>::placeholder()
+            }
+        };
+        State {
+            q: row(true),
+            d: row(true),
+            p: row(true),
+            f: row(true),
+            x: row(!phi_is_identity),
+            q_next: row(one_step || !phi_is_identity),
+            f_prev: row(one_step),
+            u: L::zero(),
+        }
+    }
+
     /// Every row from `row()`, U zero.
     #[inline(always)]
     fn from_rows(row: impl Fn() -> Sh::S<L>) -> Self {

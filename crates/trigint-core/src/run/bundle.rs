@@ -137,7 +137,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     ) -> Self {
         let count = methods.len();
         let n_blocks = sh.block_ends().len();
-        let mut st = State::<L, Sh>::new(sh);
+        let mut st = State::<L, Sh>::for_steps(sh, form == Form::OneStep, k.phi_is_identity);
         for (dst, rows) in [(&mut st.q, q0), (&mut st.p, p0)] {
             for (i, x) in dst.get_mut().iter_mut().enumerate() {
                 for b in 0..L::LANES {
