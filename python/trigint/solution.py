@@ -115,7 +115,8 @@ class Solution:
     Attributes
     ----------
     t, q, p : arrays
-        Sample times (shape (m,)) and states (shape (m, n)).
+        Sample times (shape (m,)) and states (shape (m, n)), in the problem's coordinates; the
+        sample at step 0 is the initial state exactly as given.
     steps : array of int
         The step index of each sample.
     energies : xarray.Dataset

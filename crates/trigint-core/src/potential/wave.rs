@@ -64,11 +64,12 @@ impl Drop for WaveWorkspace {
             grid: std::mem::take(&mut self.grid),
             home: None,
         };
-        if let Ok(mut kept) = home.lock() {
-            if kept.is_none() {
-                *kept = Some(back);
-            }
+        let Ok(mut kept) = home.lock() else {
+            return;
         };
+        if kept.is_none() {
+            *kept = Some(back);
+        }
     }
 }
 
