@@ -40,8 +40,14 @@ class Channels(Mapping):
 
     @classmethod
     def of(cls, names: tuple[str, ...], index: dict[str, int], values: np.ndarray) -> Channels:
-        """The channels `names` (with ``index[name]`` its position) holding `values` (copied)."""
-        return cls(table=(names, index), values=values)
+        """The channels `names` (with ``index[name]`` its position) holding `values`, an array
+        of floats the caller hands over: kept without a copy (a wave run has a channel per
+        mode) and made read-only."""
+        channels = cls.__new__(cls)
+        channels._names, channels._index = names, index
+        channels._values = np.asarray(values, dtype=float)
+        channels._values.flags.writeable = False
+        return channels
 
     def __getitem__(self, name: str) -> float:
         return float(self._values[self._index[name]])

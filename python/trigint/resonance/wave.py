@@ -219,10 +219,14 @@ def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05,
     energies = np.abs(np.asarray(mode_energies, dtype=float).reshape(-1))
     if energies.size != len(problem.modes):
         raise ValueError(f"mode_energies: expected {len(problem.modes)} values (one per mode), got {energies.size}")
-    total = float(np.sum(energies[np.isfinite(energies)]))
+    # (the finite energies' sum; where all are finite, the plain sum is that sum, without the
+    # mask and the copy it makes: one array of 2¹⁵ numbers fewer after every wave run)
+    total = float(np.sum(energies))
+    if not np.isfinite(total):
+        total = float(np.sum(energies[np.isfinite(energies)]))
     if total <= 0.0:
         return []
-    relative = energies / total
+    relative = np.divide(energies, total, out=energies)  # (energies, a new array, are not read again)
     carrying = relative >= floor
     h = step_size(h)
     omega, modes = problem.mode_frequencies, mode_list(problem)
