@@ -30,24 +30,24 @@ class Channels(Mapping):
     __slots__ = ("_names", "_index", "_values")
 
     def __init__(self, entries=(), *, table: tuple[tuple[str, ...], dict[str, int]] | None = None,
-                 values: np.ndarray | None = None):
+                 values: np.ndarray | None = None, handed_over: bool = False):
         if table is None:
             entries = dict(entries)
             table = tuple(entries), {k: i for i, k in enumerate(entries)}
             values = [float(v) for v in entries.values()]
         self._names, self._index = table
-        self._values = np.array(values, dtype=float)
+        if handed_over:  # an array nobody else writes: kept without a copy, read-only
+            self._values = np.asarray(values, dtype=float)
+            self._values.flags.writeable = False
+        else:
+            self._values = np.array(values, dtype=float)
 
     @classmethod
     def of(cls, names: tuple[str, ...], index: dict[str, int], values: np.ndarray) -> Channels:
         """The channels `names` (with ``index[name]`` its position) holding `values`, an array
         of floats the caller hands over: kept without a copy (a wave run has a channel per
         mode) and made read-only."""
-        channels = cls.__new__(cls)
-        channels._names, channels._index = names, index
-        channels._values = np.asarray(values, dtype=float)
-        channels._values.flags.writeable = False
-        return channels
+        return cls(table=(names, index), values=values, handed_over=True)
 
     def __getitem__(self, name: str) -> float:
         return float(self._values[self._index[name]])
