@@ -198,17 +198,7 @@ impl CoordinateMap {
             CoordinateMap::Identity { .. } => out.copy_from_slice(x),
             CoordinateMap::Permuted { perm, .. } => gather(x, out, perm),
             CoordinateMap::Modal { n, basis, .. } => rows_times(x, basis, *n, *n, out),
-            CoordinateMap::Fourier {
-                grid,
-                order,
-                in_grid_order,
-                kept,
-            } => {
-                let mut ws = take(kept, grid);
-                let order = (!in_grid_order).then_some(&order[..]);
-                grid.rows_from_grid(order, x, out, &mut ws);
-                keep(kept, ws);
-            }
+            CoordinateMap::Fourier { .. } => self.through_grid(x, out, Spectral::rows_from_grid),
         }
     }
 
@@ -219,17 +209,23 @@ impl CoordinateMap {
             CoordinateMap::Identity { .. } => out.copy_from_slice(x),
             CoordinateMap::Permuted { inverse, .. } => gather(x, out, inverse),
             CoordinateMap::Modal { n, basis } => rows_times_transposed(x, basis, *n, out),
-            CoordinateMap::Fourier {
-                grid,
-                order,
-                in_grid_order,
-                kept,
-            } => {
-                let mut ws = take(kept, grid);
-                let order = (!in_grid_order).then_some(&order[..]);
-                grid.rows_to_grid(order, x, out, &mut ws);
-                keep(kept, ws);
-            }
+            CoordinateMap::Fourier { .. } => self.through_grid(x, out, Spectral::rows_to_grid),
+        }
+    }
+
+    /// A Fourier map's `transform` of the rows, with the kept workspace and the map's order
+    /// (none where it is the grid's own).
+    fn through_grid(&self, x: &[f64], out: &mut [f64], transform: RowsTransform) {
+        if let CoordinateMap::Fourier {
+            grid,
+            order,
+            in_grid_order,
+            kept,
+        } = self
+        {
+            let mut ws = take(kept, grid);
+            transform(grid, (!in_grid_order).then_some(order), x, out, &mut ws);
+            keep(kept, ws);
         }
     }
 
@@ -319,6 +315,10 @@ fn gather(x: &[f64], out: &mut [f64], from: &[usize]) {
         }
     }
 }
+
+/// A transform of rows between grid values and Fourier coordinates
+/// ([`Spectral::rows_to_grid`], [`Spectral::rows_from_grid`]).
+type RowsTransform = fn(&Spectral, Option<&[usize]>, &[f64], &mut [f64], &mut SpectralWorkspace);
 
 fn take(kept: &Mutex<Option<SpectralWorkspace>>, grid: &Spectral) -> SpectralWorkspace {
     let ws = kept.lock().ok().and_then(|mut k| k.take());
