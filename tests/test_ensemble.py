@@ -29,7 +29,20 @@ def sweep_inputs():
 
 @pytest.mark.parametrize("method", ["A", "B", "D", "imex"])
 def test_each_trajectory_equals_integrate_bit_for_bit(method, sweep_inputs):
-    prob, Q0, P0, hs = sweep_inputs
+    assert_ensemble_equals_integrate(method, *sweep_inputs)
+
+
+@pytest.mark.parametrize("method", ["B", "D"])
+def test_a_uniform_block_gives_the_same_bits_in_bundles_as_alone(method):
+    """FPU m = 5: one trajectory alone runs on the uniform shape (one block, one frequency);
+    a bundle of lanes on the general one, reading each coordinate's own (equal) numbers."""
+    prob = ti.problems.fpu(m=5, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=5, omega=50.0)
+    Q0, P0 = ti.perturb(q0, p0, np.linspace(-7e-16, 7e-16, 9))
+    assert_ensemble_equals_integrate(method, prob, Q0, P0, H * np.linspace(0.97, 1.03, 9))
+
+
+def assert_ensemble_equals_integrate(method, prob, Q0, P0, hs):
     ds = ti.ensemble(prob, method, Q0, P0, h=hs, t_end=20.0, save_every=40)
     for t in range(len(hs)):
         sol = ti.integrate(prob, method, Q0[t], P0[t], h=hs[t], t_end=20.0, save_every=40)

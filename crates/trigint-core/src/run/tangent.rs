@@ -112,7 +112,7 @@ pub fn tangent<P: Potential>(
         prev_q: dq0.to_vec(),
     };
     let rows = Rows::new(layout, method);
-    with_shape!(layout, &[method], |sh, One| {
+    with_shape!(layout, &[method], 1, |sh, One| {
         let mut r =
             Run::<P, One, _>::new(pot, sh, layout, method, q0, p0, dev, rows, metric, request);
         run(&mut r, control)

@@ -73,7 +73,7 @@ pub fn tangent_batch<L: Real, P: Potential>(
         stop,
         poll,
     };
-    let bundled = with_shape!(layout, &all, |sh, _One| in_bundles::<L, _, P>(
+    let bundled = with_shape!(layout, &all, L::LANES, |sh, _One| in_bundles::<L, _, P>(
         sh, pot, &batch
     ));
     if let Some(out) = bundled {

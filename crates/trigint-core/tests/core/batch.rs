@@ -82,15 +82,17 @@ impl<P: Potential> Case<P> {
 }
 
 /// FPU, m = 3, with perturbed initial values and a step size (so a step count) per trajectory.
-fn fpu_case(count: usize) -> Case<Fpu> {
+/// FPU with m springs: m = 3 on a compile-time shape, m = 5 alone on the uniform shape (in
+/// bundles on the general one).
+fn fpu_case(m: usize, count: usize) -> Case<Fpu> {
     let base = 2.0 * std::f64::consts::PI / 3.0 / 50.0;
-    let (_, lay, q0, p0) = fpu_method_b(3, 50.0, base);
+    let (_, lay, q0, p0) = fpu_method_b(m, 50.0, base);
     let hs: Vec<f64> = (0..count)
         .map(|t| base * (0.97 + 0.06 * t as f64 / count as f64))
         .collect();
     Case {
-        pot: Fpu::new(3).unwrap(),
-        methods: hs.iter().map(|&h| fpu_method_b(3, 50.0, h).0).collect(),
+        pot: Fpu::new(m).unwrap(),
+        methods: hs.iter().map(|&h| fpu_method_b(m, 50.0, h).0).collect(),
         q0: (0..count)
             .flat_map(|t| q0.iter().map(move |x| x * (1.0 + 1e-3 * t as f64)))
             .collect(),
@@ -203,7 +205,7 @@ fn check_against_single<P: Potential>(case: &Case<P>, form: Form, rec: Record) {
 
 #[test]
 fn fpu_trajectories_equal_single_runs_bit_for_bit() {
-    let case = fpu_case(13);
+    let case = fpu_case(3, 13);
     for track in [true, false] {
         let rec = Record {
             save_every: Some(40),
@@ -221,6 +223,18 @@ fn fpu_trajectories_equal_single_runs_bit_for_bit() {
             track: true,
         },
     );
+}
+
+#[test]
+fn a_uniform_block_alone_and_in_bundles_gives_the_same_bits() {
+    let case = fpu_case(5, 9);
+    for track in [true, false] {
+        let rec = Record {
+            save_every: Some(40),
+            track,
+        };
+        check_against_single(&case, Form::TwoStep, rec);
+    }
 }
 
 #[test]
@@ -286,7 +300,7 @@ fn a_lane_that_blows_up_ends_alone_with_its_single_run_numbers() {
 
 #[test]
 fn a_stop_request_interrupts_every_unfinished_trajectory() {
-    let case = fpu_case(5);
+    let case = fpu_case(3, 5);
     let n = case.n();
     let stop = AtomicBool::new(true);
     let out = integrate_batch::<Lanes<8>, _>(
