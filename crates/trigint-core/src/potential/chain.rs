@@ -147,7 +147,7 @@ impl Potential for Chain {
         }
     }
 
-    #[inline(always)]
+    /// In its own copy per instruction set (see [`Evaluation`]), called from the kernels.
     fn force<L: Real>(
         &self,
         x: &[L],
@@ -155,22 +155,13 @@ impl Potential for Chain {
         with_value: bool,
         ws: &mut ChainWorkspace<L>,
     ) -> CoreResult<L> {
-        let mut value = L::zero();
-        for (t, term) in self.terms.iter().enumerate() {
-            let (y, g) = (&mut ws.y[t], &mut ws.g[t]);
-            term.map.apply(x, y);
-            value += term.v.eval_tiles(
-                y,
-                Some(g),
-                with_value,
-                &mut ws.registers[t],
-                &mut ws.values[t],
-                TILE,
-            );
-            // The first term writes the force, the others add to it.
-            term.map.apply_transpose(g, force, t > 0);
-        }
-        Ok(value)
+        crate::isa::run(&mut Evaluation {
+            chain: self,
+            x,
+            force: Some(force),
+            with_value,
+            ws,
+        })
     }
 
     /// G(x)v = Σ_terms Lᵀ(−V''(Lx) ⊙ Lv), V'' from each term's curvature program.
@@ -211,15 +202,61 @@ impl Potential for Chain {
         Ok(())
     }
 
-    #[inline(always)]
+    /// As [`force`](Potential::force), without the force.
     fn value<L: Real>(&self, x: &[L], ws: &mut ChainWorkspace<L>) -> CoreResult<L> {
+        crate::isa::run(&mut Evaluation {
+            chain: self,
+            x,
+            force: None,
+            with_value: true,
+            ws,
+        })
+    }
+}
+
+/// One evaluation of a chain at x: U(x) (when `with_value`) and, where `force` is given, the
+/// force into it. A kernel of its own, compiled per instruction set once per lane type, rather
+/// than inlined into every copy of the stepping loops: the chain's loops (the maps, the
+/// univariate tiles, the transposes) were 100 KB in each of the ten copies a bundle's loop has,
+/// a fifth of the binding's kernel code. A step of a chain (at least 33 springs) is
+/// microseconds, so the call is not felt.
+struct Evaluation<'a, L: Real> {
+    chain: &'a Chain,
+    x: &'a [L],
+    force: Option<&'a mut [L]>,
+    with_value: bool,
+    ws: &'a mut ChainWorkspace<L>,
+}
+
+impl<L: Real> crate::isa::Kernel for Evaluation<'_, L> {
+    type Output = CoreResult<L>;
+    // (as the chain's stepping loops: no AVX-512 copy, see `Chain`'s `AVX512`)
+    const AVX512: bool = false;
+
+    #[inline(always)]
+    fn run(&mut self) -> CoreResult<L> {
+        let ws = &mut *self.ws;
         let mut value = L::zero();
-        for (t, term) in self.terms.iter().enumerate() {
+        for (t, term) in self.chain.terms.iter().enumerate() {
             let y = &mut ws.y[t];
-            term.map.apply(x, y);
-            value +=
-                term.v
-                    .eval_tiles(y, None, true, &mut ws.registers[t], &mut ws.values[t], TILE);
+            term.map.apply(self.x, y);
+            let Some(force) = self.force.as_deref_mut() else {
+                value +=
+                    term.v
+                        .eval_tiles(y, None, true, &mut ws.registers[t], &mut ws.values[t], TILE);
+                continue;
+            };
+            let g = &mut ws.g[t];
+            value += term.v.eval_tiles(
+                y,
+                Some(g),
+                self.with_value,
+                &mut ws.registers[t],
+                &mut ws.values[t],
+                TILE,
+            );
+            // The first term writes the force, the others add to it.
+            term.map.apply_transpose(g, force, t > 0);
         }
         Ok(value)
     }
