@@ -50,6 +50,7 @@ for k, row in enumerate(fpu_linear_forms(1000)):
     for i, c in row:
         springs[k, i] = c
 chain = ti.OscillatoryProblem(big.omega, ti.ChainPotential(2000).add("y**4/4", "y", matrix=springs))
+BQ, BP = ti.perturb(bq, bp, np.linspace(-1e-9, 1e-9, 16))
 W = 300
 wave = ti.problems.wave(2**16, rho=1.0, potential="u**4/4")
 u0 = 0.1 * np.cos(2 * np.pi * np.arange(2**16) / 2**16)
@@ -71,6 +72,10 @@ rows = {
     "FPU m = 1000, one trajectory": best(lambda: ti.integrate(big, "B", bq, bp, h=H, n_steps=M, save_every=M), M),
     "FPU m = 1000 as a chain, one trajectory": best(
         lambda: ti.integrate(chain, "B", bq, bp, h=H, n_steps=M // 4, save_every=M // 4), M // 4),
+    "FPU m = 1000, 16 trajectories, 1 thread": best(
+        lambda: ti.ensemble(big, "B", BQ, BP, h=H, n_steps=M // 10, threads=1), M // 10 * 16),
+    "FPU m = 1000 as a chain, 16 trajectories, 1 thread": best(
+        lambda: ti.ensemble(chain, "B", BQ, BP, h=H, n_steps=M // 10, threads=1), M // 10 * 16),
     "wave equation, 2^16 points, energies streamed": best(
         lambda: ti.integrate(wave, "B", u0, np.zeros_like(u0), h=0.01, n_steps=W, save_every=W, progress=False), W),
 }
