@@ -147,7 +147,7 @@ impl Potential for Chain {
         }
     }
 
-    /// In its own copy per instruction set (see [`Evaluation`]), called from the kernels.
+    /// In its own copy per instruction set (a kernel of this module), called from the kernels.
     fn force<L: Real>(
         &self,
         x: &[L],
