@@ -81,9 +81,9 @@ impl<P: Potential> Case<P> {
     }
 }
 
-/// FPU, m = 3, with perturbed initial values and a step size (so a step count) per trajectory.
-/// FPU with m springs: m = 3 on a compile-time shape, m = 5 alone on the uniform shape (in
-/// bundles on the general one).
+/// FPU with m springs, with perturbed initial values and a step size (so a step count) per
+/// trajectory: m = 3 on a compile-time shape, m = 5 alone on the uniform shape (in bundles on
+/// the general one).
 fn fpu_case(m: usize, count: usize) -> Case<Fpu> {
     let base = 2.0 * std::f64::consts::PI / 3.0 / 50.0;
     let (_, lay, q0, p0) = fpu_method_b(m, 50.0, base);
