@@ -203,17 +203,22 @@ fn check_against_single<P: Potential>(case: &Case<P>, form: Form, rec: Record) {
     }
 }
 
-#[test]
-fn fpu_trajectories_equal_single_runs_bit_for_bit() {
-    let case = fpu_case(3, 13);
+/// [`check_against_single`] in both forms, with the energies streamed and not, sampled.
+fn check_both_forms_against_single<P: Potential>(case: &Case<P>) {
     for track in [true, false] {
         let rec = Record {
             save_every: Some(40),
             track,
         };
-        check_against_single(&case, Form::TwoStep, rec);
-        check_against_single(&case, Form::OneStep, rec);
+        check_against_single(case, Form::TwoStep, rec);
+        check_against_single(case, Form::OneStep, rec);
     }
+}
+
+#[test]
+fn fpu_trajectories_equal_single_runs_bit_for_bit() {
+    let case = fpu_case(3, 13);
+    check_both_forms_against_single(&case);
     // Without samples, the streamed diagnostics only.
     check_against_single(
         &case,
@@ -227,14 +232,7 @@ fn fpu_trajectories_equal_single_runs_bit_for_bit() {
 
 #[test]
 fn a_uniform_block_alone_and_in_bundles_gives_the_same_bits() {
-    let case = fpu_case(5, 9);
-    for track in [true, false] {
-        let rec = Record {
-            save_every: Some(40),
-            track,
-        };
-        check_against_single(&case, Form::TwoStep, rec);
-    }
+    check_both_forms_against_single(&fpu_case(5, 9));
 }
 
 #[test]
