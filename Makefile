@@ -16,7 +16,7 @@ $(PY):
 install: $(PY)
 	@echo "trigint: installing; the first build of the Rust core (release) takes 5-15 minutes on 2 cores,"
 	@echo "trigint: later ones seconds. cargo's progress follows."
-	$(PY) scripts/install_progress.py -e '.[test]'
+	$(PY) scripts/install_progress.py test
 
 # The Rust tests build (debug profile) beside the package's release build, which leaves a core
 # idle while a single crate's front end runs. The Python tests then run on every core, a test

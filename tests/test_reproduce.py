@@ -95,8 +95,18 @@ def test_perturbations_are_distinct_doubles():
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])
 def test_quick_claims_pass_for_other_realization_sets(seed, tmp_path, quick):
     """The random-walk figures on four more sets of initial values (seed 0, the paper's, is the
-    run above): no claim may pass by the luck of one realization."""
-    claims = experiments.reproduce(["fig2", "fig3", "fig4"], tmp_path, quick=True, seed=seed, log=lambda *_: None)
+    run above): no claim may pass by the luck of one realization. The first set goes through
+    `reproduce` (its `seed`); the others are only computed and measured, without their files
+    and plots (a third of the time)."""
+    if seed == 1:
+        claims = experiments.reproduce(["fig2", "fig3", "fig4"], tmp_path, quick=True, seed=seed, log=lambda *_: None)
+        assert (tmp_path / "fig3.png").exists()
+    else:
+        claims = []
+        for name in ("fig2", "fig3", "fig4"):
+            spec = experiments.load(name, quick=True)
+            spec["figure"]["seed"] = seed
+            claims += experiments.measure(experiments.run(spec))
     failed = [f"{c.figure}: {c.claim} = {c.measured}" for c in claims if not c.passed]
     assert not failed, failed
     # the realization sets really differ: Figure 2's spread exponent is not that of seed 0
