@@ -4,12 +4,16 @@ them (the channel table, the observing sweep's sums): :func:`trigint.energies`.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from . import _native
 from .methods import Method
 from .problem import OscillatoryProblem
+
+if TYPE_CHECKING:  # imported where a Dataset is made, so that `import trigint` loads no xarray (nor pandas)
+    import xarray as xr
 
 
 def energy_names(n_blocks: int, n_axes: int = 0) -> list[str]:
@@ -85,6 +89,8 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         from ._method_names import resolve_method
 
         method = resolve_method(method)
+    import xarray as xr
+
     data = problem.stepper.state_energies(problem, np.atleast_2d(q), np.atleast_2d(p), method, h)
     if q.ndim == 1:
         return xr.Dataset({k: ((), v[0]) for k, v in data.items()})

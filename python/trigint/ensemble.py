@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import os
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
 
 from . import _check, _outputs, _progress
 from ._batch import core_arguments, prepare
@@ -30,6 +30,9 @@ from .integrate import MAX_SAMPLE_BYTES, sample_bytes
 from .methods import Method
 from .problem import OscillatoryProblem
 from .saveat import SaveAt
+
+if TYPE_CHECKING:  # imported where a Dataset is made, so that `import trigint` loads no xarray (nor pandas)
+    import xarray as xr
 
 #: show a progress bar by default from this many trajectory-steps on
 PROGRESS_FROM = 10**8
@@ -480,6 +483,8 @@ def _assemble(problem, method, batch, names, spans, results, stored, save_every,
         data["t"] = (("trajectory", "sample"), np.where(step >= 0, step * batch.h[:, None], np.nan))
         # Each trajectory's last kept sample (its final state): ds.q.isel(sample=ds.last_sample).
         coords["last_sample"] = ("trajectory", np.maximum((step >= 0).sum(axis=1) - 1, 0))
+    import xarray as xr
+
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(method=repr(method), problem=repr(problem))
     if lyapunov is not None:

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
+
+if TYPE_CHECKING:  # imported where a Dataset is made, so that `import trigint` loads no xarray (nor pandas)
+    import xarray as xr
 
 #: channels a summary lists by name; the rest (one per block or mode) by their largest values
 SUMMARY_ENTRIES = 6
@@ -225,6 +228,8 @@ class Solution:
         axes = ("x", "y", "z")[: len(shape)]
         data = np.asarray(values).reshape(self.t.size, *shape)
         coords = {"t": self.t, **dict(zip(axes, self.problem.grid, strict=True))}
+        import xarray as xr
+
         return xr.DataArray(data, dims=("t", *axes), coords=coords, name=name)
 
     def deviation(self, energy: str = "oscillatory") -> xr.DataArray:

@@ -17,13 +17,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
 
 from . import _check, _core, _tape
 from .potentials import Potential, PythonPotential
 from .problem import OscillatoryProblem
+
+if TYPE_CHECKING:  # imported where a Dataset is made, so that `import trigint` loads no xarray (nor pandas)
+    import xarray as xr
 
 #: modes kept in ``sol.energies["action"]`` by default: all of them up to this many
 ALL_MODES_UP_TO = 256
@@ -339,6 +342,8 @@ class WaveProblem(OscillatoryProblem):
         data = {**whole, **momentum, "action": (("t", "mode"), actions)}
         # axis a (0-based, as NumPy's) is the channel momentum_{a+1} of max_deviation
         axes = {"axis": np.arange(len(self.shape)), **({"channel": ("axis", streamed)} if streamed else {})}
+        import xarray as xr
+
         return xr.Dataset(data, coords={**coords, **self._mode_coords(), **axes}, attrs=attrs)
 
     def _mode_coords(self) -> dict:
