@@ -277,3 +277,28 @@ def test_spec_schema_checks_panels_and_expressions(tmp_path):
         path.write_text(fig1.replace(old, new, 1))
         with pytest.raises(ValueError, match=match):
             experiments.load(str(path))
+
+
+def test_a_step_size_in_a_0d_array_is_its_number_and_an_array_says_its_shape():
+    """``h=np.array(0.03)`` (a step size read from a file or sliced from an array) is that step
+    size, with the bits of ``h=0.03``; an array of several says its shape."""
+    a = ti.integrate(PROB, "B", Q0, P0, h=np.array(H), n_steps=20)
+    b = ti.integrate(PROB, "B", Q0, P0, h=H, n_steps=20)
+    assert a.h == H and np.array_equal(a.q, b.q)
+    with pytest.raises(TypeError, match=r"^h: expected a positive float, got an array of shape \(2,\)$"):
+        ti.integrate(PROB, "B", Q0, P0, h=np.array([H, H]), n_steps=20)
+    with pytest.raises(TypeError, match=r"got an array of shape \(\)$"):
+        ti.integrate(PROB, "B", Q0, P0, h=np.array(True), n_steps=20)
+
+
+def test_a_channel_that_is_not_there_names_those_that_are():
+    sol = ti.integrate(PROB, "B", Q0, P0, h=H, n_steps=5)
+    with pytest.raises(KeyError, match=r"no channel 'Oscillatory' \(did you mean 'oscillatory'\?\); the channels "
+                                       r"are 'total', 'oscillatory', 'slow', "):
+        sol.max_deviation["Oscillatory"]
+    assert sol.max_deviation.get("H", -1.0) == -1.0 and "H" not in sol.max_deviation
+    wave = ti.problems.wave(16, rho=0.5)
+    x, = wave.grid
+    sol = ti.integrate(wave, "B", 0.01 * np.cos(x), 0 * x, h=0.02, n_steps=5)
+    with pytest.raises(KeyError, match=r"'momentum_1', 'oscillatory_1' … 'oscillatory_9'\"$"):
+        sol.initial_energies["mode_3"]

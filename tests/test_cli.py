@@ -32,6 +32,13 @@ def test_every_command_has_a_description_and_shows_its_defaults():
     assert "(default: 3)" in run_cli("fpu", "--help").stdout
 
 
+def test_debug_goes_before_or_after_the_command():
+    parser = build_parser()
+    assert parser.parse_args(["fpu", "--debug"]).debug and parser.parse_args(["--debug", "fpu"]).debug
+    assert not parser.parse_args(["resonance", "--h", "0.04", "--omega", "50"]).debug
+    assert "strata" in next(a for a in parser._actions if a.dest == "command").choices["run"].format_help()
+
+
 def test_a_closed_pipe_ends_the_output_quietly():
     """`trigint resonance ... --json | head`: the reader leaves before the JSON is written."""
     proc = subprocess.Popen([sys.executable, "-m", "trigint.cli", "resonance", "--h", "0.0418879", "--omega", "50",

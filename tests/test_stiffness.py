@@ -270,7 +270,8 @@ def test_sparse_stiffness_is_accepted_for_the_dense_path():
 
 @pytest.mark.parametrize(("stiffness", "message"), [
     (np.ones((2, 3)), "square"),
-    (np.array([[1.0, 0.5], [0.4, 1.0]]), r"symmetric; \|A - A\^T\| is 0.1"),
+    (np.array([[1.0, 0.5], [0.4, 1.0]]),
+     r"symmetric; \|A - A\^T\| is 0.1 .* largest at A\[0, 1\] = 0.5 vs A\[1, 0\] = 0.4$"),
     (np.diag([1.0, -0.5]), "eigenvalue -0.5"),
     (np.array([[1.0, np.nan], [np.nan, 1.0]]), "finite"),
     (np.array([[1.0, 2j], [-2j, 1.0]]), "complex"),

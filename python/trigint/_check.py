@@ -45,6 +45,21 @@ def too_large(name: str, value) -> ValueError:
     return ValueError(f"{name}: {shown(value)} is too large for a double (at most about 1.8e308 in magnitude)")
 
 
+def _unwrapped(value):
+    """A 0-d NumPy array of integers or floats (``np.array(0.03)``) as its scalar; anything
+    else unchanged."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        return value[()]
+    return value
+
+
+def _kind(value) -> str:
+    """The type of `value` as an error message names it (an array with its shape)."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    return type(value).__name__
+
+
 def real(value, name: str, *, positive: bool = False, nonneg: bool = False, finite: bool = True) -> float:
     """A real number: int or float (NumPy scalars included), not bool, str or complex.
 
@@ -54,6 +69,7 @@ def real(value, name: str, *, positive: bool = False, nonneg: bool = False, fini
     Traceback (most recent call last):
     ValueError: h: an integer of 401 digits is too large for a double (at most about 1.8e308 in magnitude)
     """
+    value = _unwrapped(value)
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
         raise TypeError(f"{name}: expected a real number, got {shown(value)} ({type(value).__name__})")
     try:
@@ -76,6 +92,7 @@ def is_integer(value) -> bool:
 
 def number(value, name: str) -> float:
     """A real number, finite or not (not a string, a bool or a complex)."""
+    value = _unwrapped(value)
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise TypeError(f"{name}: expected a number, got {shown(value)} ({type(value).__name__})")
     try:
@@ -85,9 +102,10 @@ def number(value, name: str) -> float:
 
 
 def step_size(h) -> float:
-    """The step size h: a finite float > 0."""
+    """The step size h: a finite float > 0 (a 0-d array of one is taken as its number)."""
+    h = _unwrapped(h)
     if isinstance(h, bool) or not isinstance(h, int | float | np.integer | np.floating):
-        raise TypeError(f"h: expected a positive float, got {type(h).__name__}")
+        raise TypeError(f"h: expected a positive float, got {_kind(h)}")
     try:
         h = float(h)
     except OverflowError:

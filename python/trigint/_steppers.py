@@ -36,7 +36,7 @@ class Recursion:
                 try:
                     method.coefficients(float(ht), problem.omega)
                 except ValueError as exc:
-                    raise ValueError(f"trajectory {t} (h = {ht!r}): {exc}") from None
+                    raise ValueError(f"trajectory {t} (h = {float(ht)!r}): {exc}") from None
             raise
         return {k: table[k][which] for k in _native.METHOD_ROWS}
 

@@ -129,8 +129,8 @@ def dense_stiffness(stiffness) -> np.ndarray:
     if asym > 1e-12 * scale:
         i, j = np.unravel_index(int(np.argmax(np.abs(a - a.T))), a.shape)
         raise ValueError(f"stiffness: A must be symmetric; |A - A^T| is {asym:.3g} (relative "
-                         f"{asym / scale:.3g} > 1e-12), largest at A[{i}, {j}] = {a[i, j]!r} vs "
-                         f"A[{j}, {i}] = {a[j, i]!r}")
+                         f"{asym / scale:.3g} > 1e-12), largest at A[{i}, {j}] = {float(a[i, j])!r} vs "
+                         f"A[{j}, {i}] = {float(a[j, i])!r}")
     return 0.5 * (a + a.T)
 
 

@@ -132,8 +132,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"trigint {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    # --debug after the command as well ('trigint fpu --debug'); SUPPRESS: absent there, it does
+    # not overwrite a --debug given before the command
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show the full traceback on errors")
     p = sub.add_parser(
-        "fpu", formatter_class=fmt, help="integrate the FPU problem and plot the oscillatory energy",
+        "fpu", parents=[common], formatter_class=fmt, help="integrate the FPU problem and plot the oscillatory energy",
         description="Integrates the Fermi-Pasta-Ulam chain (m stiff springs of frequency omega, the initial "
                     "values of Hairer-Lubich-Wanner I.5) with one method and step size h = (h*omega)/omega, "
                     "prints the run's summary and plots the deviation of the oscillatory energy. A step size "
@@ -149,7 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_fpu)
 
     ly = sub.add_parser(
-        "lyapunov", formatter_class=fmt,
+        "lyapunov", parents=[common], formatter_class=fmt,
         help="Lyapunov exponents of the integrator's map on the FPU problem, over step sizes",
         description="The leading finite-time Lyapunov exponents (Benettin's method on the exact tangent map "
                     "of the step) and the MEGNO indicator of the FPU chain integrated by one method, for each "
@@ -167,22 +172,24 @@ def build_parser() -> argparse.ArgumentParser:
     ly.add_argument("--out", default="reproduction", help="output folder for the plot")
     ly.set_defaults(run=_lyapunov)
 
-    r = sub.add_parser("resonance", formatter_class=fmt,
+    r = sub.add_parser("resonance", parents=[common], formatter_class=fmt,
                        help="the paper's non-resonance conditions and assumptions at a step size",
                        description="Evaluates, for step size h and frequencies omega, the conditions of "
                                    "Cohen, Gauckler, Hairer, Lubich (2015): kappa = min|sin(h w_j)| >= sqrt(h) "
                                    "(eq. 3.2), Assumption B on the filters, the numerical non-resonance "
                                    "condition |h k.w - 2 pi r| >= sqrt(h) (eq. 3.6) and the older "
                                    "|sin(h k.w / 2)| >= sqrt(h) (eq. 3.7), with the times they guarantee.")
-    r.add_argument("--h", type=float, required=True, help="step size")
-    r.add_argument("--omega", type=float, nargs="+", required=True, help="frequencies (0 = slow)")
+    r.add_argument("--h", type=float, required=True, default=argparse.SUPPRESS, help="step size")
+    r.add_argument("--omega", type=float, nargs="+", required=True, default=argparse.SUPPRESS,
+                   help="frequencies (0 = slow)")
     r.add_argument("--method", default="B", help="A-E, a filter alias, imex or stormer-verlet")
     r.add_argument("--N-max", dest="N_max", type=int, default=10, help="largest N to test")
     r.add_argument("--delta", type=float, default=0.25, help="delta of Theorem 3.1")
     r.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     r.set_defaults(run=_resonance)
 
-    rp = sub.add_parser("reproduce", formatter_class=fmt, help="regenerate the paper's figures and measure its claims",
+    rp = sub.add_parser("reproduce", parents=[common], formatter_class=fmt,
+                        help="regenerate the paper's figures and measure its claims",
                         description="Runs the paper's Figures 1-5 and two wave experiments (wave1: resonances; "
                                     "strata: energy strata, Gauckler, Hairer, Lubich, Weiss 2012) from their "
                                     "shipped specs, writes each figure (PNG, PDF), its data (NetCDF) and report.md, "
@@ -195,23 +202,25 @@ def build_parser() -> argparse.ArgumentParser:
                          "to check that no claim passes by luck")
     rp.set_defaults(run=_reproduce)
 
-    ru = sub.add_parser("run", formatter_class=fmt, help="run an experiment spec (a TOML file)",
+    ru = sub.add_parser("run", parents=[common], formatter_class=fmt,
+                        help="run an experiment spec (a TOML file)",
                         description="Runs one experiment spec: a TOML file such as a figure's spec written by "
                                     "'trigint spec fig3 > my.toml' and edited, or a figure's name. Writes the "
                                     "figure, its data and the measured claims into --out.")
-    ru.add_argument("spec", help="path of the TOML spec, or fig1 ... fig5, wave1")
+    ru.add_argument("spec", help="path of the TOML spec, or fig1 ... fig5, wave1, strata")
     ru.add_argument("--out", default="reproduction", help="output folder")
     ru.add_argument("--quick", action="store_true", help="apply the spec's [quick] table: a reduced run")
     ru.set_defaults(run=_run_toml)
 
-    sp = sub.add_parser("spec", formatter_class=fmt, help="print a figure's experiment spec (TOML), to copy and edit",
+    sp = sub.add_parser("spec", parents=[common], formatter_class=fmt,
+                        help="print a figure's experiment spec (TOML), to copy and edit",
                         description="Prints the spec that 'trigint reproduce' runs for one figure, as TOML on "
                                     "standard output: 'trigint spec fig3 > my.toml', edit my.toml, then "
                                     "'trigint run my.toml'.")
     sp.add_argument("figure", help="fig1 ... fig5, wave1, strata")
     sp.set_defaults(run=_spec)
 
-    inf = sub.add_parser("info", formatter_class=fmt,
+    inf = sub.add_parser("info", parents=[common], formatter_class=fmt,
                          help="the CPU, the kernel copies and the plans chosen, versions (for bug reports)",
                          description="Prints the CPU model, the instruction-set copies of the kernels it may "
                                      "run, how copies are chosen (TRIGINT_PLAN, TRIGINT_ISA), the plan cache's "

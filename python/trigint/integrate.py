@@ -78,7 +78,8 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
         A tqdm bar over steps (default: for runs of 10⁷ steps or more, when stderr is a
         terminal or in a notebook; ``True`` where no bar can be drawn, as in a log file, prints
         a line every 10 % instead), or a callable ``progress(steps_done)`` that may return
-        False to stop.
+        False to stop. The core reports every 2²⁰ steps (2¹⁰ with a `PythonPotential` or on
+        the Krylov path), so a shorter run calls it not at all and a bar shows its end only.
     saveat : SaveAt, optional
         What to keep, as one value (replaces `save_every` and `track_energies`);
         ``SaveAt(every=None)`` keeps step 0 and the last step only.

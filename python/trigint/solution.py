@@ -53,7 +53,24 @@ class Channels(Mapping):
         return cls(table=(names, index), values=values, handed_over=True)
 
     def __getitem__(self, name: str) -> float:
-        return float(self._values[self._index[name]])
+        try:
+            return float(self._values[self._index[name]])
+        except (KeyError, TypeError):
+            raise KeyError(self._unknown(name)) from None
+
+    def _unknown(self, name) -> str:
+        """Why `name` is not a channel: the channels there are (the per-block ones as a range),
+        and the nearest name where one is near."""
+        import difflib
+
+        main = [k for k in self._names if not k.startswith("oscillatory_")]
+        blocks = [k for k in self._names if k.startswith("oscillatory_")]
+        listed = main + (blocks if len(blocks) <= 2 else [f"{blocks[0]!r} … {blocks[-1]!r}"])
+        there = ", ".join(k if "…" in k else repr(k) for k in listed)
+        lower = {k.lower(): k for k in main}
+        near = difflib.get_close_matches(name.lower(), list(lower), n=1) if isinstance(name, str) else []
+        hint = f" (did you mean {lower[near[0]]!r}?)" if near else ""
+        return f"no channel {name!r}{hint}; the channels are {there}"
 
     def __contains__(self, name) -> bool:
         return name in self._index
