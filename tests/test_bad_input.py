@@ -302,3 +302,16 @@ def test_a_channel_that_is_not_there_names_those_that_are():
     sol = ti.integrate(wave, "B", 0.01 * np.cos(x), 0 * x, h=0.02, n_steps=5)
     with pytest.raises(KeyError, match=r"'momentum_1', 'oscillatory_1' … 'oscillatory_9'\"$"):
         sol.initial_energies["mode_3"]
+
+
+@pytest.mark.parametrize(("value", "gradient", "match"), [
+    (lambda q: 0.5 * float(q @ q), lambda q: list(q),
+     r"^the gradient must return a 1-d float array of 2 values, got list$"),
+    (lambda q: 0.5 * float(q @ q), lambda q: np.arange(len(q)),
+     r"^the gradient must return a 1-d float array of 2 values, got ndarray of dtype int64 and shape \(2,\)$"),
+    (lambda q: [0.5 * float(q @ q)], lambda q: q, r"^the value function must return one float, got list$"),
+])
+def test_a_python_potential_returning_the_wrong_type_hears_what_it_returned(value, gradient, match):
+    prob = ti.OscillatoryProblem([0.0, 10.0], ti.PythonPotential(value, gradient, dim=2))
+    with pytest.raises(TypeError, match=match):
+        ti.integrate(prob, "B", [0.1, 0.0], [0.0, 0.1], h=0.01, n_steps=3)

@@ -249,7 +249,8 @@ class ExpressionPotential(Potential):
     def __repr__(self) -> str:
         text = str(self.expr)
         text = text if len(text) <= 60 else text[:57] + "..."
-        return f"ExpressionPotential({text!r}, dim={self.dim})"
+        params = f", params={dict(self.params)!r}" if self.params else ""
+        return f"ExpressionPotential({text!r}, dim={self.dim}{params})"
 
 
 class PolynomialPotential(Potential):

@@ -260,9 +260,11 @@ class OscillatoryProblem:
                     f"{f.values.size} distinct frequenc{'y' if f.values.size == 1 else 'ies'} [{f.listing()}], "
                     f"grouping changed them by at most {f.max_relative_change:.1e} (relative), "
                     f"potential={self.potential!r})")
+        slow = int(np.count_nonzero(self.omega == 0))
         return (
-            f"OscillatoryProblem(n={self.dim}, blocks={self.n_blocks}, "
-            f"frequencies={np.round(self.block_frequencies, 6).tolist()}, potential={self.potential!r})"
+            f"OscillatoryProblem(n={self.dim}: {slow} slow, {self.dim - slow} oscillatory in {self.n_blocks} "
+            f"block{'' if self.n_blocks == 1 else 's'} of frequencies "
+            f"{np.round(self.block_frequencies, 6).tolist()}, potential={self.potential!r})"
         )
 
 

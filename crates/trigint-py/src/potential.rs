@@ -155,7 +155,8 @@ impl PythonCallbacks {
             let r = self.value.call1(py, (Self::block(py, states, lanes)?,))?;
             let v: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
                 PyTypeError::new_err(format!(
-                    "the vectorized value function must return {lanes} floats (one per row)"
+                    "the vectorized value function must return {lanes} floats (one per row), got {}",
+                    returned(r.bind(py))
                 ))
             })?;
             if v.len() != lanes {
@@ -169,10 +170,13 @@ impl PythonCallbacks {
         (0..lanes)
             .map(|b| {
                 let arr = PyArray1::from_slice(py, &states[b * n..(b + 1) * n]);
-                self.value
-                    .call1(py, (arr,))?
-                    .extract::<f64>(py)
-                    .map_err(|_| PyTypeError::new_err("the value function must return one float"))
+                let r = self.value.call1(py, (arr,))?;
+                r.extract::<f64>(py).map_err(|_| {
+                    PyTypeError::new_err(format!(
+                        "the value function must return one float, got {}",
+                        returned(r.bind(py))
+                    ))
+                })
             })
             .collect()
     }
@@ -191,7 +195,8 @@ impl PythonCallbacks {
                 .call1(py, (Self::block(py, states, lanes)?,))?;
             let g: PyReadonlyArray2<f64> = r.bind(py).extract().map_err(|_| {
                 PyTypeError::new_err(format!(
-                    "the vectorized gradient must return a float array of shape ({lanes}, {n})"
+                    "the vectorized gradient must return a float array of shape ({lanes}, {n}), got {}",
+                    returned(r.bind(py))
                 ))
             })?;
             if g.shape() != [lanes, n] {
@@ -218,10 +223,12 @@ impl PythonCallbacks {
         for b in 0..lanes {
             let arr = PyArray1::from_slice(py, &states[b * n..(b + 1) * n]);
             let r = self.gradient.call1(py, (arr,))?;
-            let g: PyReadonlyArray1<f64> = r
-                .bind(py)
-                .extract()
-                .map_err(|_| PyTypeError::new_err("the gradient must return a 1-d float array"))?;
+            let g: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "the gradient must return a 1-d float array of {n} values, got {}",
+                    returned(r.bind(py))
+                ))
+            })?;
             if g.len() != n {
                 return Err(PyValueError::new_err(format!(
                     "the gradient returned {} values for {n} coordinates",
@@ -289,7 +296,10 @@ impl Potential for PythonCallbacks {
                         (PyArray1::from_slice(py, x), PyArray1::from_slice(py, v)),
                     )?;
                     let hv: PyReadonlyArray1<f64> = r.bind(py).extract().map_err(|_| {
-                        PyTypeError::new_err("hessian_vector must return a 1-d float array")
+                        PyTypeError::new_err(format!(
+                            "hessian_vector must return a 1-d float array of {n} values, got {}",
+                            returned(r.bind(py))
+                        ))
                     })?;
                     if hv.len() != n {
                         return Err(PyValueError::new_err(format!(
@@ -349,6 +359,20 @@ impl Potential for PythonCallbacks {
             }
             Ok(u)
         })
+    }
+}
+
+/// What a user's callable returned, as its error names it: the type, and for an array its dtype
+/// and shape (`list`, `ndarray of dtype int64 and shape (6,)`).
+fn returned(r: &Bound<'_, PyAny>) -> String {
+    let kind = r
+        .get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "an object".to_string());
+    match (r.getattr("dtype"), r.getattr("shape")) {
+        (Ok(dtype), Ok(shape)) => format!("{kind} of dtype {dtype} and shape {shape}"),
+        _ => kind,
     }
 }
 

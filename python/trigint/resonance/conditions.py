@@ -323,13 +323,13 @@ class ResonanceReport:
             f"  Assumption B             {'holds' if self.assumption_B else 'FAILS'} "
             f"(c1 = {self.c1:.6g}, C1 = {self.C1:.6g})",
             f"  symplectic               {'yes' if self.symplectic else 'no'}",
+            f"  resonance module basis   {self.module_basis or 'none (no exact relation k.w = 0)'}",
             f"  numerical non-resonance |h k.w - 2 pi r| >= sqrt(h), eq. (3.6): holds up to N = {self.N}"
             + (" (N_max)" if self.N == self.N_max else ""),
         ]
         lines += _violation_table(self.violations, "|h k.w - 2 pi r|", self.N)
         lines.append(f"  older condition |sin(h k.w / 2)| >= sqrt(h), eq. (3.7): holds up to N = {self.N_old}"
                      + (" (N_max)" if self.N_old == self.N_max else ""))
-        lines.append(f"  resonance module basis   {self.module_basis or 'none (no exact relation k.w = 0)'}")
         lines += _violation_table(self.violations_old, "|sin(h k.w / 2)|", self.N_old)
         lines += [
             f"  Theorem {'3.2' if self.modified else '3.1'} with N = {self.N}, delta = {self.delta:g}: "
