@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import warnings
 from importlib import resources
 
 import numpy as np
@@ -315,3 +316,18 @@ def test_a_python_potential_returning_the_wrong_type_hears_what_it_returned(valu
     prob = ti.OscillatoryProblem([0.0, 10.0], ti.PythonPotential(value, gradient, dim=2))
     with pytest.raises(TypeError, match=match):
         ti.integrate(prob, "B", [0.1, 0.0], [0.0, 0.1], h=0.01, n_steps=3)
+
+
+def test_an_ensemble_at_one_resonant_step_size_warns_as_integrate_does():
+    """Perturbed runs at one step size hear integrate()'s warning at it; a scan across the
+    resonance does not (it crosses it on purpose) and reports its blow-ups instead."""
+    Q, P = ti.perturb(Q0, P0, np.linspace(-1e-9, 1e-9, 3))
+    resonant = 3.14159 / 50
+    message = r"numerical resonance: h\*omega\[3\] = 3.14159 is 2.65e-06 from 1\*pi"
+    with pytest.warns(RuntimeWarning, match=message) as w:
+        ti.ensemble(PROB, "B", Q, P, h=resonant, n_steps=50)
+    assert w[0].filename == __file__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ti.ensemble(PROB, "B", Q, P, h=H, n_steps=50)
+        ti.ensemble(PROB, "B", Q0, P0, h=[H, resonant], n_steps=50)

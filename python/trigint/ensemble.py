@@ -26,7 +26,7 @@ from ._outputs import STATUS_NAMES
 from ._steppers import run_chunk
 from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
-from .integrate import MAX_SAMPLE_BYTES, sample_bytes
+from .integrate import MAX_SAMPLE_BYTES, method_coefficients, sample_bytes, warn_near_resonance
 from .methods import Method
 from .problem import OscillatoryProblem
 from .saveat import SaveAt
@@ -118,6 +118,7 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
     _check_lyapunov(lyapunov, problem)
+    _warn_at_one_step_size(problem, method, batch.h)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every, track_energies = saveat.every, saveat.track_energies
     if threads is not None:
@@ -460,6 +461,18 @@ def _potential_key(potential) -> str:
         names = (getattr(f, "__qualname__", "?") for f in (potential.value_function, potential.gradient_function))
         return "python:" + ":".join(names)
     return repr(spec)
+
+
+def _warn_at_one_step_size(problem, method: Method, h: np.ndarray) -> None:
+    """Where every trajectory has the same step size (Figure 2's perturbed runs), the warning
+    :func:`trigint.integrate` gives at it: hω near a non-zero multiple of π. A scan over step
+    sizes crosses resonances on purpose, so it is not warned (its blow-ups are reported after
+    the run); nor is a problem with its own check after the run (a wave) or without computed
+    frequencies (the Krylov path)."""
+    if h.size == 0 or not problem.stepper.has_spectrum or getattr(problem, "warn_resonances", None) is not None:
+        return
+    if np.all(h == h[0]):
+        warn_near_resonance(method_coefficients(problem, method, float(h[0]), "two-step"), method, stacklevel=4)
 
 
 def _assemble(problem, method, batch, names, spans, results, stored, save_every, lyapunov=None) -> xr.Dataset:

@@ -149,7 +149,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     # modes carry energy; the others by the ODE condition (3.2), before it.
     own_warning = getattr(problem, "warn_resonances", None)
     if co is not None and own_warning is None:
-        _warn_near_resonance(co, method)
+        warn_near_resonance(co, method)
     # a step that calls Python or runs Lanczos iterations is slow: the progress bar shows sooner
     slow = isinstance(problem.potential, PythonPotential) or not stepper.has_spectrum
     every = PROGRESS_EVERY_PYTHON if slow else PROGRESS_EVERY_NATIVE
@@ -176,8 +176,9 @@ def method_coefficients(problem, method: Method, h: float, form: str):
                            lambda: method.coefficients(h, problem.omega, form=form))
 
 
-def _warn_near_resonance(co, method: Method) -> None:
-    """The warning of integrate()'s docstring: hω̃_j near a non-zero multiple of π."""
+def warn_near_resonance(co, method: Method, stacklevel: int = 3) -> None:
+    """The warning of integrate()'s docstring: hω̃_j near a non-zero multiple of π (`stacklevel`
+    points at the user's call)."""
     xt = np.where(co.omega > 0, co.xi_tilde, 0.0)
     kappa = np.abs(np.sin(xt))
     bound = min(float(np.sqrt(co.h)), NEAR_RESONANCE_SIN)
@@ -193,7 +194,7 @@ def _warn_near_resonance(co, method: Method) -> None:
         f"non-resonance condition (3.2) of Cohen, Gauckler, Hairer, Lubich (2015) fails and the energies may "
         f"drift or blow up (method {method.name!r}, h = {co.h:.6g}). Choose h with {name}[{j}] away from "
         "multiples of pi; trigint.resonance.analyze(h, omega) checks a step size",
-        RuntimeWarning, stacklevel=3)
+        RuntimeWarning, stacklevel=stacklevel)
 
 
 def _solution(problem, method, h, n_steps, out, co=None) -> Solution:
