@@ -58,6 +58,16 @@ class Channels(Mapping):
         except (KeyError, TypeError):
             raise KeyError(self._unknown(name)) from None
 
+    def get(self, name, default=None):
+        """The value of channel `name`, or `default` where there is none (without building
+        :meth:`__getitem__`'s message, which walks every name: a wave run has tens of
+        thousands)."""
+        try:
+            i = self._index[name]
+        except (KeyError, TypeError):
+            return default
+        return float(self._values[i])
+
     def _unknown(self, name) -> str:
         """Why `name` is not a channel: the channels there are (the per-block ones as a range),
         and the nearest name where one is near."""
