@@ -115,6 +115,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     """
     if not isinstance(problem, OscillatoryProblem):
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
+    # The result is a Dataset: xarray (with pandas, about 0.3 s the first time in a process) is
+    # loaded before the run, so that a Ctrl-C's return does not wait for it.
+    import xarray  # noqa: F401
+
     method = resolve_method(method)
     batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
     _check_lyapunov(lyapunov, problem)
