@@ -32,10 +32,10 @@ def requirements(extra: str | None) -> list[str]:
 def main() -> int:
     extra = sys.argv[1] if len(sys.argv) > 1 else None
     pip = [sys.executable, "-m", "pip", "install"]
-    with tempfile.TemporaryDirectory() as tmp:
+    # (the dependencies' output goes to a file, not a pipe: nothing waits on a full pipe)
+    with tempfile.TemporaryDirectory() as tmp, open(Path(tmp) / "dependencies.log", "w+") as log:
         listed = Path(tmp) / "requirements.txt"
         listed.write_text("\n".join(requirements(extra)) + "\n")
-        log = open(Path(tmp) / "dependencies.log", "w+")  # a file, not a pipe: nothing waits on a full pipe
         deps = subprocess.Popen([*pip, "--quiet", "-r", str(listed)], stdout=log, stderr=subprocess.STDOUT)
         tail: deque[str] = deque(maxlen=80)
         with subprocess.Popen([*pip, "-v", "--no-deps", "-e", str(ROOT)], stdout=subprocess.PIPE,
@@ -47,7 +47,6 @@ def main() -> int:
         deps.wait()
         log.seek(0)
         deps_output = log.read()
-        log.close()
     if build.returncode != 0:
         print("".join(tail), end="", file=sys.stderr)
         return build.returncode
