@@ -3,7 +3,7 @@
 
 use super::bundle::{Bundle, CHECK};
 use crate::coefficients::{Coef, Weights};
-use crate::energy::{Extremes, PairForms, Sums, TOTAL};
+use crate::energy::{Extremes, PackedExtremes, PairForms, Sums, TOTAL};
 use crate::error::CoreResult;
 use crate::output::Form;
 use crate::potential::Potential;
@@ -233,6 +233,8 @@ impl<
         // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
         let mut guard = L::zero();
         let zero = L::zero();
+        // One lane on 16 vector registers: its whole-state extremes as whole vectors, in memory.
+        let mut packed = PackedExtremes::of(ext);
         for j in n..e {
             // One trajectory of a compile-time shape with an inline force, on 16 vector
             // registers: the step is taken as the unobserved loop takes it, and (q_n, p_n) are
@@ -286,11 +288,13 @@ impl<
             if TRACK {
                 let main = sums.channels(st.u, PLAIN);
                 guard += main[TOTAL] * zero;
-                ext.update(&main);
                 if extremes_in_memory {
+                    packed.update(&main);
                     // The extremes' address escapes: they are stored here and reloaded when
                     // next needed, rather than kept in registers across the step.
-                    std::hint::black_box(&mut *ext);
+                    std::hint::black_box(&mut packed);
+                } else {
+                    ext.update(&main);
                 }
                 if many && TWO_STEP {
                     // The blocks' extremes were taken by the sweep.
@@ -317,9 +321,15 @@ impl<
                 };
                 if !(bad & active).is_empty() {
                     // Replayed from the checkpoint, extremes included.
+                    if extremes_in_memory {
+                        packed.store(ext);
+                    }
                     return Ok(Some(j));
                 }
             }
+        }
+        if extremes_in_memory {
+            packed.store(ext);
         }
         Ok(None)
     }
