@@ -14,6 +14,8 @@ use crate::real::{first_failing, Real};
 /// One number per coordinate: a fixed-size array (small problems) or a vector.
 pub trait Storage<L>: Clone + Send + Sync + 'static {
     fn filled(n: usize, value: L) -> Self;
+    /// The numbers f(0), …, f(n − 1), each written once (a vector is not zeroed first).
+    fn from_fn(n: usize, f: impl FnMut(usize) -> L) -> Self;
     /// The storage of these numbers (as many as the storage holds), the vector's own memory
     /// where the storage is a vector.
     fn from_vec(v: Vec<L>) -> Self;
@@ -28,6 +30,11 @@ impl<L: Real, const N: usize> Storage<L> for [L; N] {
     fn filled(n: usize, value: L) -> Self {
         debug_assert_eq!(n, N);
         [value; N]
+    }
+    #[inline(always)]
+    fn from_fn(n: usize, f: impl FnMut(usize) -> L) -> Self {
+        debug_assert_eq!(n, N);
+        std::array::from_fn(f)
     }
     #[inline(always)]
     fn from_vec(v: Vec<L>) -> Self {
@@ -52,6 +59,9 @@ impl<L: Real, const N: usize> Storage<L> for [L; N] {
 impl<L: Real> Storage<L> for Vec<L> {
     fn filled(n: usize, value: L) -> Self {
         vec![value; n]
+    }
+    fn from_fn(n: usize, f: impl FnMut(usize) -> L) -> Self {
+        (0..n).map(f).collect()
     }
     fn from_vec(v: Vec<L>) -> Self {
         v

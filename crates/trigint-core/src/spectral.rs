@@ -393,11 +393,12 @@ impl Spectral {
         ws: &mut SpectralWorkspace,
     ) {
         let n = self.points;
-        // the transform overwrites its input
-        let mut row = vec![0.0; n];
+        // the transform overwrites its input (a copy of the row, filled below: not zeroed first)
+        let mut row = Vec::with_capacity(n);
         let mut canonical = order.map(|_| vec![0.0; n]);
         for (u, q) in u.chunks_exact(n).zip(q.chunks_exact_mut(n)) {
-            row.copy_from_slice(u);
+            row.clear();
+            row.extend_from_slice(u);
             match (order, &mut canonical) {
                 (Some(order), Some(c)) => {
                     self.transpose(&mut row, c, 1.0 / n as f64, ws);

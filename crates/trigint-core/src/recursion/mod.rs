@@ -22,12 +22,14 @@ use crate::error::CoreResult;
 use crate::potential::Potential;
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
-use crate::sum::{pairwise, Sum8};
+use crate::sum::Sum8;
 
 mod blocks;
+mod state_sums;
 
 use blocks::many_blocks;
 pub use blocks::Riders;
+pub use state_sums::sums_of_state;
 
 /// What a step computes besides advancing.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -71,11 +73,34 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
         Self::from_rows(|| Sh::S::<L>::filled(sh.n(), L::zero()))
     }
 
-    /// The rows a bundle stepping in this form reads, zeroed; the others own no memory (on a
-    /// 2¹⁶-point wave, three 512 KiB rows a call does not zero). φq's scratch `x` is read only
+    /// The rows a bundle stepping in this form reads (q and p the initial values, written
+    /// once; the others zeroed); the others own no memory (on a 2¹⁶-point wave, three 512 KiB
+    /// rows a call does not zero). φq's scratch `x` is read only
     /// where φ is not the identity; `q_next` by the one-step form, and by the lane loop as U's
     /// scratch where φ is not the identity; `f_prev` by the one-step form only.
-    pub fn for_steps(sh: &Sh, one_step: bool, phi_is_identity: bool) -> Self {
+    ///
+    /// q and p are the trajectories' initial values, lane b from row b of `q0` and `p0` (lanes
+    /// beyond the rows repeat the last one).
+    pub fn for_steps(
+        sh: &Sh,
+        one_step: bool,
+        phi_is_identity: bool,
+        (q0, p0): (&[&[f64]], &[&[f64]]),
+    ) -> Self {
+        let initial = |rows: &[&[f64]]| {
+            if L::LANES == 1 {
+                // one trajectory: a copy (a loop the compiler vectorizes)
+                let row = &rows[0][..sh.n()];
+                return Sh::S::<L>::from_fn(sh.n(), |i| L::splat(row[i]));
+            }
+            Sh::S::<L>::from_fn(sh.n(), |i| {
+                let mut x = L::zero();
+                for b in 0..L::LANES {
+                    x.set_lane(b, rows[b.min(rows.len() - 1)][i]);
+                }
+                x
+            })
+        };
         let row = |read: bool| {
             if read {
                 Sh::S::<L>::filled(sh.n(), L::zero())
@@ -84,9 +109,9 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
             }
         };
         State {
-            q: row(true),
+            q: initial(q0),
             d: row(true),
-            p: row(true),
+            p: initial(p0),
             f: row(true),
             x: row(!phi_is_identity),
             q_next: row(one_step || !phi_is_identity),
@@ -465,70 +490,6 @@ pub fn two_step_start<L: Real, Sh: Shape>(sh: &Sh, k: &Coef<L, Sh::S<L>>, st: &m
         d[i] = -(at(omc, c) * q[i]) + at(hchi, c) * p[i] + at(half, c) * f[i];
         q[i] += d[i];
     }
-}
-
-/// (H_ω, H*) summed over the oscillatory blocks in order, from `block(start, end)` of each;
-/// each block's H_ω goes to `blocks[j]` (the per-block energies I_j, before the ½).
-#[inline(always)]
-fn over_blocks<L: Real>(
-    ns: usize,
-    ends: &[usize],
-    blocks: &mut [L],
-    mut block: impl FnMut(usize, usize) -> (L, L),
-) -> (L, L) {
-    let (mut total, mut modified) = (Sum8::new(), Sum8::new());
-    let mut start = ns;
-    for (j, &end) in ends.iter().enumerate() {
-        let (e, m) = block(start, end);
-        blocks[j] = e;
-        total.add(j % 8, j >= 8, e);
-        modified.add(j % 8, j >= 8, m);
-        start = end;
-    }
-    (total.total(ends.len()), modified.total(ends.len()))
-}
-
-/// The energy sums of a state given whole (q_n, p_n): the one-step form's observation and the
-/// initial state's. The same forms and summation order as [`two_step`].
-#[inline(always)]
-pub fn sums_of_state<L: Real, Sh: Shape>(
-    sh: &Sh,
-    w: &Weights<L, Sh::S<L>>,
-    q: &[L],
-    p: &[L],
-    plain: bool,
-    blocks: &mut [L],
-) -> Sums<L> {
-    let (ns, n) = (sh.ns(), sh.n());
-    let (w2, mp, mq) = (w.omega2.get(), w.modified_p.get(), w.modified_q.get());
-    // Every index below is below n (the shape's ranges), read without bounds tests.
-    let (q, p, w2, mp, mq) = (&q[..n], &p[..n], &w2[..n], &mp[..n], &mq[..n]);
-    if !Sh::FIXED {
-        assert!(sh.ns() <= n && sh.block_ends().iter().all(|&e| e <= n));
-    }
-    let mut sums = Sums::zero();
-    (sums.0[sum::KINETIC], _) = pairwise!(L, 0, ns, |i| (kinetic(at(p, i)), L::zero()));
-    macro_rules! block {
-        ($start:expr, $end:expr) => {
-            pairwise!(L, $start, $end, |i| {
-                let c = sh.coef(i);
-                let (pi, qi) = (at(p, i), at(q, i));
-                let m = if plain {
-                    L::zero()
-                } else {
-                    modified(pi, qi, at(mp, c), at(mq, c))
-                };
-                (oscillator(pi, qi, at(w2, c)), m)
-            })
-        };
-    }
-    if sh.single_block() {
-        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) = block!(ns, n);
-    } else {
-        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
-            over_blocks(ns, sh.block_ends(), blocks, |a, b| block!(a, b));
-    }
-    sums
 }
 
 /// One-step form, first half: q_{n+1} from (q_n, p_n, g_n); afterwards `q` holds q_{n+1},

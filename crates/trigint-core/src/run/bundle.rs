@@ -137,15 +137,12 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     ) -> Self {
         let count = methods.len();
         let n_blocks = sh.block_ends().len();
-        let mut st = State::<L, Sh>::for_steps(sh, form == Form::OneStep, k.phi_is_identity);
-        for (dst, rows) in [(&mut st.q, q0), (&mut st.p, p0)] {
-            for (i, x) in dst.get_mut().iter_mut().enumerate() {
-                for b in 0..L::LANES {
-                    x.set_lane(b, rows[b.min(count - 1)][i]);
-                }
-            }
-        }
-        let z = || Sh::S::<L>::filled(sh.n(), L::zero());
+        let st = State::<L, Sh>::for_steps(
+            sh,
+            form == Form::OneStep,
+            k.phi_is_identity,
+            (&q0[..count], &p0[..count]),
+        );
         let lanes = n_steps
             .iter()
             .map(|&n| Lane::new(n, FIRST_BLOCK + n_blocks))
@@ -166,10 +163,12 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 Sh::S::<L>::placeholder(),
                 Extremes::placeholder(),
             ),
+            // (filled when first kept: a short run that samples every step it observes never
+            // reads them, and zeros written here would only be overwritten)
             good: Observed {
                 step: 0,
-                q: z(),
-                p: z(),
+                q: Sh::S::<L>::placeholder(),
+                p: Sh::S::<L>::placeholder(),
                 main: [L::zero(); FIRST_BLOCK],
                 blocks: vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 }],
             },
@@ -190,10 +189,15 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         let (n_blocks, axes) = (self.sh.block_ends().len(), f.axes());
         self.pairs = pairs;
         self.axes = vec![L::zero(); axes];
-        self.ext = Extremes::new(n_blocks, axes);
-        self.good.blocks = vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 } + axes];
+        // The per-axis channels after the blocks' (grown, not made again: a 2¹⁶-point wave
+        // has 32 769 blocks).
+        let several = if n_blocks > 1 { n_blocks } else { 0 } + axes;
+        let (high, low) = (&mut self.ext.block_high, &mut self.ext.block_low);
+        high.resize(several, L::splat(f64::NEG_INFINITY));
+        low.resize(several, L::splat(f64::INFINITY));
+        self.good.blocks.resize(several, L::zero());
         for lane in &mut self.lanes {
-            lane.initial = vec![f64::NAN; channel_count(n_blocks, axes)];
+            lane.initial.resize(channel_count(n_blocks, axes), f64::NAN);
         }
         self
     }

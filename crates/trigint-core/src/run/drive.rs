@@ -105,7 +105,10 @@ fn drive<S: Stepper>(s: &mut S, control: &mut Control) -> CoreResult<()> {
     let mut n = 1;
     while !s.active().is_empty() {
         let e = next_event(s, n, control.every);
-        s.save_checkpoint();
+        // (a segment of no steps, as when every step is sampled, needs no checkpoint)
+        if e > n {
+            s.save_checkpoint();
+        }
         if let Some(j) = s.hot(n, e)? {
             // A lane is not finite at step j or before: replay n..=j carefully.
             s.restore_checkpoint()?;

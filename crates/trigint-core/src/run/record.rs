@@ -284,8 +284,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         if every_lane_has_it {
             return;
         }
-        self.good.q.get_mut().copy_from_slice(self.st.q.get());
-        self.good.p.get_mut().copy_from_slice(self.st.p.get());
+        self.good.q.clone_from(&self.st.q);
+        self.good.p.clone_from(&self.st.p);
         self.good.main = *main;
         self.good.blocks.clone_from_slice(blocks);
     }

@@ -1,7 +1,7 @@
 //! The wave equation's observing sweep: the momentum and the per-mode extremes taken along in
 //! the pass over the state give the bits of the separate loops.
 
-use trigint_core::energy::PairForms;
+use trigint_core::energy::{PairForms, FIRST_BLOCK, MODIFIED};
 use trigint_core::fixtures::{layout, sinc, trigonometric};
 use trigint_core::run::Control;
 use trigint_core::*;
@@ -67,7 +67,7 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
     assert_eq!(bits(&x.samples.energies), bits(&y.samples.energies));
     // The momentum moved (collocation with aliasing does not keep it on so coarse a grid):
     // the test compares numbers, not zeros; every mode's deviation is there.
-    use trigint_core::energy::{FIRST_BLOCK, OSCILLATORY, SLOW, TOTAL};
+    use trigint_core::energy::{OSCILLATORY, SLOW, TOTAL};
     let k = x.max_deviation.len() - 1;
     assert_eq!(k + 1, channel_count(9, 1));
     assert!(x.initial_energies[k] != 0.0 && x.max_deviation[k] > 1e-6);
@@ -147,4 +147,62 @@ fn a_prepared_layout_and_method_give_the_bits_of_a_plain_run_at_every_call() {
         .unwrap_err()
         .to_string()
         .contains("15 entries for 16 coordinates"));
+}
+
+#[test]
+fn the_energies_of_given_states_have_the_bits_of_the_observing_sweep() {
+    // 32 points: modes 0, ±1, …, ±15, 16, one block each (one coordinate, fifteen of two, one).
+    // `state_energies` sums runs of blocks of two in a flat loop and the others block by block;
+    // the run's samples were observed by the sweep. A second layout merges blocks into ones of
+    // three and four coordinates, which break the runs. (H* is left out: `state_energies` is
+    // given no modified weights.)
+    let n = 32;
+    let wave = Wave::new(&[n], &Chain::monomial(0.25, 4), (0..n).collect()).unwrap();
+    let j = wave.grid().wavevectors().to_vec();
+    let omega: Vec<f64> = j.iter().map(|&j| (1.0 + (j * j) as f64).sqrt()).collect();
+    let co = trigonometric(0.05, &omega, sinc, |_| 1.0);
+    let q0: Vec<f64> = (0..n).map(|i| 0.1 * ((i as f64) * 0.7).sin()).collect();
+    let p0: Vec<f64> = (0..n).map(|i| 0.05 * ((i as f64) * 1.3).cos()).collect();
+    let modes = layout(&omega);
+    let mut merged = modes.clone();
+    merged.block_ends.retain(|&e| e != 1 && e != 5);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for lay in [modes, merged] {
+        let mut go = |_| true;
+        let control = Control {
+            every: 1 << 20,
+            report: &mut go,
+        };
+        let record = Record {
+            save_every: Some(1),
+            track: true,
+        };
+        let out = integrate(
+            &wave,
+            &lay,
+            &co,
+            &q0,
+            &p0,
+            12,
+            Form::TwoStep,
+            record,
+            control,
+        )
+        .unwrap();
+        let (s, channels) = (&out.samples, channel_count(lay.n_blocks(), 0));
+        assert_eq!(s.steps.len(), 13);
+        let given = run::state_energies(&wave, &lay, None, &s.q, &s.p).unwrap();
+        let skip_modified = |rows: &[f64]| {
+            rows.chunks(channels)
+                .flat_map(|r| [&r[..MODIFIED], &r[MODIFIED + 1..]].concat())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            bits(&skip_modified(&given)),
+            bits(&skip_modified(&s.energies))
+        );
+        // every block's energy is there, and moves
+        let first_block = &s.energies[FIRST_BLOCK..channels];
+        assert!(first_block.iter().all(|&e| e > 0.0));
+    }
 }
