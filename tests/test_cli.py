@@ -117,6 +117,17 @@ def test_ensemble_in_a_log_has_no_bar():
     assert err.getvalue().splitlines()[-1] == "ensemble: 100% (2 of 2 chunks)" and "\r" not in err.getvalue()
 
 
+def test_resonance_takes_the_step_size_as_h_omega_as_fpu_does():
+    by_h = run_cli("resonance", "--h", str(2 * np.pi / 3 / 50), "--omega", "0", "50", "--json")
+    by_h_omega = run_cli("resonance", "--h-omega", str(2 * np.pi / 3), "--omega", "0", "50", "--json")
+    assert by_h.returncode == by_h_omega.returncode == 0, by_h_omega.stderr
+    assert by_h.stdout == by_h_omega.stdout and '"kappa"' in by_h.stdout
+    both = run_cli("resonance", "--h", "0.04", "--h-omega", "2", "--omega", "50")
+    assert both.returncode == 2 and "not allowed with argument" in both.stderr
+    slow = run_cli("resonance", "--h-omega", "2", "--omega", "0")
+    assert slow.returncode != 0 and "--h-omega needs a frequency > 0" in slow.stderr
+
+
 def test_the_theory_page_shows_what_trigint_resonance_prints():
     import shlex
     from pathlib import Path

@@ -69,7 +69,13 @@ def _lyapunov(args) -> int:
 def _resonance(args) -> int:
     from trigint.resonance import analyze
 
-    report = analyze(args.h, args.omega, method=args.method, N_max=args.N_max, delta=args.delta)
+    h = getattr(args, "h", None)
+    if h is None:
+        largest = max(args.omega)
+        if not largest > 0:
+            raise ValueError(f"--h-omega needs a frequency > 0 in --omega, got {args.omega}; or give --h")
+        h = args.h_omega / largest
+    report = analyze(h, args.omega, method=args.method, N_max=args.N_max, delta=args.delta)
     print(report.to_json() if args.json else report)
     return 0
 
@@ -179,7 +185,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(eq. 3.2), Assumption B on the filters, the numerical non-resonance "
                                    "condition |h k.w - 2 pi r| >= sqrt(h) (eq. 3.6) and the older "
                                    "|sin(h k.w / 2)| >= sqrt(h) (eq. 3.7), with the times they guarantee.")
-    r.add_argument("--h", type=float, required=True, default=argparse.SUPPRESS, help="step size")
+    step = r.add_mutually_exclusive_group(required=True)
+    step.add_argument("--h", type=float, default=argparse.SUPPRESS, help="step size")
+    step.add_argument("--h-omega", type=float, default=argparse.SUPPRESS,
+                      help="the step size as h times the largest frequency, as `trigint fpu` takes it")
     r.add_argument("--omega", type=float, nargs="+", required=True, default=argparse.SUPPRESS,
                    help="frequencies (0 = slow)")
     r.add_argument("--method", default="B", help="A-E, a filter alias, imex or stormer-verlet")
