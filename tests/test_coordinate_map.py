@@ -84,3 +84,40 @@ def test_the_modal_map_is_the_basis_and_composes_as_scipy_multiplies():
 def test_bad_maps_are_refused_with_what_was_wrong(make, match):
     with pytest.raises(ValueError, match=match):
         make()
+
+
+def test_samples_go_to_the_users_coordinates_in_place_with_the_bits_of_to_user():
+    # every kind of map that moves numbers: a permutation, a modal basis, a wave's Fourier grid
+    problems = [
+        ti.OscillatoryProblem([50.0, 0.0, 70.0, 50.0], ti.PolynomialPotential([1.0], [[1, 0, 0, 0]])),
+        ti.OscillatoryProblem(stiffness=stiffness_with(EIGENVALUES, seed=4),
+                              potential=ti.PolynomialPotential([1.0], [[1, 1, 0, 0, 0]])),
+        ti.problems.wave(32, rho=1.0, potential="u**4/4"),
+    ]
+    rng = np.random.default_rng(3)
+    for prob in problems:
+        lay = core_layout(prob)
+        x = rng.standard_normal((4, prob.dim))
+        for first in (0, 1, 4):
+            y = x.copy()
+            assert lay.map.to_user_in_place(y, first) is None
+            np.testing.assert_array_equal(y[:first], x[:first])
+            np.testing.assert_array_equal(y[first:], lay.map.to_user(x[first:]).reshape(-1, prob.dim))
+        # a run's samples: step 0 is the user's initial state, the others mapped; a read-only or
+        # strided array is mapped into a new one instead, with the same numbers
+        x0 = rng.standard_normal(prob.dim)
+        expect = np.vstack([x0, lay.map.to_user(x[1:])])
+        for given in (x.copy(), np.asfortranarray(x)):
+            np.testing.assert_array_equal(lay.samples_to_user(np.array([0, 1, 2, 3]), given, x0), expect)
+        frozen = x.copy()
+        frozen.flags.writeable = False
+        np.testing.assert_array_equal(lay.samples_to_user(np.array([0, 1, 2, 3]), frozen, x0), expect)
+        np.testing.assert_array_equal(frozen, x)  # not written
+        np.testing.assert_array_equal(lay.samples_to_user(np.array([2, 3, 4, 5]), x.copy(), x0),
+                                      lay.map.to_user(x))
+        with pytest.raises(ValueError, match="not a writeable array"):
+            lay.map.to_user_in_place(frozen, 1)
+        with pytest.raises(ValueError, match="C-contiguous"):
+            lay.map.to_user_in_place(np.asfortranarray(x), 1)
+        with pytest.raises(ValueError, match="coordinates along the last axis"):
+            lay.map.to_user_in_place(np.zeros((2, prob.dim + 1)), 0)

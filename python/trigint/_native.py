@@ -95,12 +95,15 @@ class CoreLayout:
         x = np.asarray(x, dtype=float)
         if self.map.is_identity:
             return x
-        if len(steps) == 0 or int(steps[0]) != 0:
-            return self.map.to_user(x)
-        # (into x itself, the core's fresh array: a new one would be mapped page by page)
-        if len(x) > 1:
-            x[1:] = self.map.to_user(x[1:])
-        x[0] = x0
+        # (into x itself, the core's fresh array, row by row: a new array of the samples' size
+        # would be mapped page by page, and double the memory they take)
+        given = len(steps) > 0 and int(steps[0]) == 0
+        if not (x.flags.c_contiguous and x.flags.writeable):
+            x = self.map.to_user(x)
+        elif len(x) > int(given):
+            self.map.to_user_in_place(x, int(given))
+        if given:
+            x[0] = x0
         return x
 
     def rows_to_core(self, x: np.ndarray) -> np.ndarray:

@@ -176,6 +176,46 @@ impl CoordinateMap {
         self.apply(py, x, coordinates::CoordinateMap::to_user)
     }
 
+    /// to_user_in_place(x, first) -> None: rows first, first + 1, … of x (a writeable,
+    /// C-contiguous float64 array; last axis: the core's coordinates) taken to the user's
+    /// coordinates in place, a row at a time through a copy. A run's samples are made so, with
+    /// no second array of their size.
+    fn to_user_in_place(
+        &self,
+        py: Python<'_>,
+        x: &Bound<'_, PyArrayDyn<f64>>,
+        first: usize,
+    ) -> PyResult<()> {
+        let n = self.map.dim();
+        let shape = x.shape().to_vec();
+        if shape.last() != Some(&n) {
+            return Err(PyValueError::new_err(format!(
+                "expected states of {n} coordinates along the last axis, got shape {shape:?}"
+            )));
+        }
+        // (`as_slice_mut` also takes a column-major array, in its memory order: rows are wanted)
+        if !x.is_c_contiguous() {
+            return Err(PyValueError::new_err(
+                "x: not a C-contiguous array; use to_user",
+            ));
+        }
+        let mut x = x.try_readwrite().map_err(|e| {
+            PyValueError::new_err(format!("x: not a writeable array ({e}); use to_user"))
+        })?;
+        let rows = x.as_slice_mut().map_err(|_| {
+            PyValueError::new_err("x: not a C-contiguous array; use to_user".to_string())
+        })?;
+        let map = &*self.map;
+        py.detach(|| {
+            let mut row = vec![0.0; n];
+            for out in rows.chunks_exact_mut(n.max(1)).skip(first) {
+                row.copy_from_slice(out);
+                map.to_user(&row, out);
+            }
+        });
+        Ok(())
+    }
+
     /// numbers_to_core(x) -> per-coordinate numbers listed in the order of the problem's
     /// frequencies (a method's coefficients) in the core's order.
     fn numbers_to_core<'py>(
