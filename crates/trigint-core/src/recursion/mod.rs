@@ -73,14 +73,12 @@ impl<L: Real, Sh: Shape> State<L, Sh> {
         Self::from_rows(|| Sh::S::<L>::filled(sh.n(), L::zero()))
     }
 
-    /// The rows a bundle stepping in this form reads (q and p the initial values, written
-    /// once; the others zeroed); the others own no memory (on a 2¹⁶-point wave, three 512 KiB
-    /// rows a call does not zero). φq's scratch `x` is read only
-    /// where φ is not the identity; `q_next` by the one-step form, and by the lane loop as U's
-    /// scratch where φ is not the identity; `f_prev` by the one-step form only.
-    ///
-    /// q and p are the trajectories' initial values, lane b from row b of `q0` and `p0` (lanes
-    /// beyond the rows repeat the last one).
+    /// The rows a bundle stepping in this form reads. q and p hold the trajectories' initial
+    /// values, written once (lane b from row b of `q0` and `p0`; lanes beyond the rows repeat
+    /// the last one); the other rows it reads are zeroed, and those it does not read own no
+    /// memory (on a 2¹⁶-point wave, three 512 KiB rows a call does not zero). φq's scratch `x`
+    /// is read only where φ is not the identity; `q_next` by the one-step form, and by the lane
+    /// loop as U's scratch where φ is not the identity; `f_prev` by the one-step form only.
     pub fn for_steps(
         sh: &Sh,
         one_step: bool,

@@ -233,7 +233,7 @@ impl<
         // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
         let mut guard = L::zero();
         let zero = L::zero();
-        // One lane on 16 vector registers: its whole-state extremes as whole vectors, in memory.
+        // One lane on 16 vector registers: its whole-state extremes in pairs, in memory.
         let mut packed = PackedExtremes::of(ext);
         for j in n..e {
             // One trajectory of a compile-time shape with an inline force, on 16 vector

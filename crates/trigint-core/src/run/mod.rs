@@ -121,8 +121,8 @@ pub(crate) fn check_state(name: &'static str, v: &[f64], n: usize, which: &str) 
             format!("{which}has {} entries for {n} coordinates", v.len()),
         ));
     }
-    // Whole chunks tested without an early exit (a loop the compiler vectorizes: a 2^16-point
-    // state is tested in a tenth of the time of a search), then the first bad entry found.
+    // Whole chunks tested without an early exit (a loop the compiler vectorizes, which a search
+    // that stops at the first bad entry is not), then that entry found.
     let finite = v
         .chunks(64)
         .all(|c| c.iter().fold(true, |ok, x| ok & x.is_finite()));
