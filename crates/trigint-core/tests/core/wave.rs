@@ -13,16 +13,39 @@ fn run(
     q0: &[f64],
     p0: &[f64],
 ) -> TrajectoryOutput {
+    run_for(wave, lay, co, (q0, p0), 200, 50)
+}
+
+/// `n_steps` two-step steps with the energies streamed and a sample every `save_every`.
+fn run_for(
+    wave: &Wave,
+    lay: &Layout,
+    co: &MethodCoefficients,
+    (q0, p0): (&[f64], &[f64]),
+    n_steps: u64,
+    save_every: u64,
+) -> TrajectoryOutput {
     let mut go = |_| true;
     let control = Control {
         every: 1 << 20,
         report: &mut go,
     };
     let record = Record {
-        save_every: Some(50),
+        save_every: Some(save_every),
         track: true,
     };
-    integrate(wave, lay, co, q0, p0, 200, Form::TwoStep, record, control).unwrap()
+    integrate(
+        wave,
+        lay,
+        co,
+        q0,
+        p0,
+        n_steps,
+        Form::TwoStep,
+        record,
+        control,
+    )
+    .unwrap()
 }
 
 #[test]
@@ -168,27 +191,7 @@ fn the_energies_of_given_states_have_the_bits_of_the_observing_sweep() {
     merged.block_ends.retain(|&e| e != 1 && e != 5);
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for lay in [modes, merged] {
-        let mut go = |_| true;
-        let control = Control {
-            every: 1 << 20,
-            report: &mut go,
-        };
-        let record = Record {
-            save_every: Some(1),
-            track: true,
-        };
-        let out = integrate(
-            &wave,
-            &lay,
-            &co,
-            &q0,
-            &p0,
-            12,
-            Form::TwoStep,
-            record,
-            control,
-        )
-        .unwrap();
+        let out = run_for(&wave, &lay, &co, (&q0, &p0), 12, 1);
         let (s, channels) = (&out.samples, channel_count(lay.n_blocks(), 0));
         assert_eq!(s.steps.len(), 13);
         let given = run::state_energies(&wave, &lay, None, &s.q, &s.p).unwrap();
