@@ -185,8 +185,12 @@ impl<L: Real> Sums<L> {
             self.0[sum::MODIFIED] = self.0[sum::OSCILLATOR];
         }
         let half = L::splat(0.5);
-        // The table is a constant: each channel's loop unrolls to its own expression.
-        std::array::from_fn(|c| {
+        // The table is a constant: each channel's loop unrolls to its own expression. A plain
+        // loop, not `array::from_fn`: its closure was left uninlined in a large caller (the lane
+        // loop of a compiled program), a call per channel whose 64-byte result, written in 16-byte
+        // pieces, was read back whole: a failed store-to-load forwarding each time.
+        let mut out = [L::zero(); FIRST_BLOCK];
+        for (c, out) in out.iter_mut().enumerate() {
             let Some(Value { halves, potential }) = CHANNELS[c].value else {
                 unreachable!("the whole-state channels come first and have values")
             };
@@ -195,8 +199,9 @@ impl<L: Real> Sums<L> {
                 let term = half * self.0[s];
                 value = Some(value.map_or(term, |inner| term + inner));
             }
-            value.unwrap_or(L::zero())
-        })
+            *out = value.unwrap_or(L::zero());
+        }
+        out
     }
 }
 

@@ -251,11 +251,19 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
     /// channels of the state (q_n in `q`, p_n in `p`).
     pub(super) fn channels(&mut self, sums: &Sums<L>) -> ([L; FIRST_BLOCK], Vec<L>) {
         let main = sums.channels(self.st.u, self.w.plain_modified);
+        let extra = if self.pairs.is_some() {
+            self.axes.len()
+        } else {
+            0
+        };
         let mut blocks = if self.sh.single_block() {
-            Vec::new()
+            Vec::with_capacity(extra)
         } else {
             self.half_blocks();
-            self.block_sums.clone()
+            // (sized for the axes' channels too: growing it copied the block energies again)
+            let mut b = Vec::with_capacity(self.block_sums.len() + extra);
+            b.extend_from_slice(&self.block_sums);
+            b
         };
         if let Some(f) = self.pairs {
             f.evaluate(self.st.q.get(), self.st.p.get(), &mut self.axes);
