@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use crate::channels::channel_count;
 use crate::coefficients::{Coef, MethodCoefficients, Weights};
-use crate::energy::{Extremes, PairForms, Samples, Sums, FIRST_BLOCK, TOTAL};
+use crate::energy::{with_axes_room, Extremes, PairForms, Samples, Sums, FIRST_BLOCK, TOTAL};
 use crate::error::CoreResult;
 use crate::output::{Form, Record, Status, TrajectoryOutput};
 use crate::potential::Potential;
@@ -61,7 +61,7 @@ impl Lane {
             n_steps,
             status: Status::Completed,
             steps_done: 0,
-            initial: vec![f64::NAN; channels],
+            initial: with_axes_room(channels, f64::NAN),
             high: Vec::new(),
             low: Vec::new(),
             samples: Samples::default(),
@@ -170,7 +170,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
                 q: Sh::S::<L>::placeholder(),
                 p: Sh::S::<L>::placeholder(),
                 main: [L::zero(); FIRST_BLOCK],
-                blocks: vec![L::zero(); if n_blocks > 1 { n_blocks } else { 0 }],
+                blocks: with_axes_room(if n_blocks > 1 { n_blocks } else { 0 }, L::zero()),
             },
             ext: Extremes::new(n_blocks, 0),
             block_sums: vec![L::zero(); n_blocks.max(1)],
