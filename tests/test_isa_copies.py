@@ -28,6 +28,11 @@ a = scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 
 sites = ti.ChainPotential(n).add("y**4/4", "y", sites=range(n))
 chain = ti.OscillatoryProblem(stiffness=a, potential=sites, path="krylov")
 kr = ti.integrate(chain, "D", np.sin(np.linspace(0, 3, n)), np.zeros(n), h=0.05, n_steps=30, save_every=30)
+# a chain on the recursion (its own copies of the stepping loop): one trajectory and lanes
+springs = ti.OscillatoryProblem(np.full(40, 50.0), ti.ChainPotential(40).add("y**4/4 + y**3/3", "y", sites=range(40)))
+y0 = 0.02 * np.cos(np.arange(40)); Y0, V0 = ti.perturb(y0, np.zeros(40), np.linspace(0, 1e-6, 9))
+ch = ti.integrate(springs, "C", y0, np.zeros(40), h=h, n_steps=2000, save_every=1000)
+ch_ens = ti.ensemble(springs, "B", Y0, V0, h=h, n_steps=1000, save_every=500, threads=1)
 # the tangent steps: one trajectory (two vectors, a filter), a compiled expression, bundled lanes
 ly = ti.lyapunov(prob, "C", q0, p0, h=h, n_steps=3000, n_exponents=2)
 ly_ex = ti.lyapunov(expr, "B", q0, p0, h=h, n_steps=2000)
@@ -37,7 +42,8 @@ np.savez(sys.argv[1], ly=ly.exponents, ly_megno=ly.megno.values, ly_hist=ly.hist
          one=one.q, one_dev=np.array(list(one.max_deviation.values())), ens=ens.q.values,
          one_e=one_e.q, one_e_dev=np.array(list(one_e.max_deviation.values())),
          one_m_dev=np.array(list(one_m.max_deviation.values())),
-         ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q)
+         ens_dev=ens.max_deviation.values, ex=ex.q, kr=kr.q, ch=ch.q,
+         ch_dev=np.array(list(ch.max_deviation.values())), ch_ens=ch_ens.q.values)
 """
 
 

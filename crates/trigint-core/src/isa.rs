@@ -185,7 +185,7 @@ fn run_measuring<K: Kernel>(
 #[inline(always)]
 fn run_copy<K: Kernel>(k: &mut K, isa: Isa) -> K::Output {
     // The conditions on the kernel's constants come first, so that a copy it does not want is
-    // never compiled (the build-time cut of compiled programs, chains and waves: no AVX-512 copy).
+    // never compiled (the build-time cut of compiled programs and waves: no AVX-512 copy).
     #[cfg(all(target_arch = "x86_64", not(debug_assertions)))]
     if K::WIDE {
         if K::AVX512 && isa == Isa::Avx512 {

@@ -57,8 +57,8 @@ pub trait Potential: Sync {
     const SPECIALIZE: bool = true;
 
     /// Worth an AVX-512 copy of the kernels besides the AVX2 one (false where it measured no
-    /// faster than the AVX2 copy: compiled programs and chains, whose force is a call to machine
-    /// code, and wave equations, whose step is two FFTs that choose their own instructions). Each
+    /// faster than the AVX2 copy: compiled programs, whose force is a call to machine code, and
+    /// wave equations, whose step is two FFTs that choose their own instructions). Each
     /// copy is the whole inlined tight loop to optimize, per shape, lane type and variant.
     const AVX512: bool = Self::SPECIALIZE;
 
