@@ -251,6 +251,7 @@ pub fn next(id: Id, copies: &[Isa]) -> Next {
         let chosen = p
             .known
             .get(&key)
+            .filter(|(_, timings)| measured_all(timings, copies))
             .map(|(isa, _)| *isa)
             .filter(|isa| copies.contains(isa));
         Entry {
@@ -274,6 +275,17 @@ pub fn next(id: Id, copies: &[Isa]) -> Next {
         4
     };
     Next::Measure(isa, steps.clamp(1, 1 << 20))
+}
+
+/// Whether a cached plan's timings ("avx2=… baseline=…") cover every copy now a candidate: a
+/// build that gives a loop a copy more (chains their AVX-512 copy) measures it again, rather
+/// than keep a choice made without it.
+fn measured_all(timings: &str, copies: &[Isa]) -> bool {
+    copies.iter().all(|c| {
+        timings
+            .split_whitespace()
+            .any(|t| t.split('=').next() == Some(c.name()))
+    })
 }
 
 /// Adds a timed piece (`ns` for `steps` steps in copy `isa`) to loop `id`'s measuring; chooses
@@ -496,6 +508,33 @@ mod tests {
         assert!(parse_cache("garbage").is_err());
         let bad = format!("{}\nsse9\tLoop\tx\n", header());
         assert!(parse_cache(&bad).unwrap_err().contains("sse9"));
+    }
+
+    #[test]
+    fn a_cached_plan_that_did_not_measure_a_candidate_is_measured_again() {
+        let timings = "avx2=0.5 baseline=1";
+        assert!(measured_all(timings, &[Isa::Avx2, Isa::Baseline]));
+        assert!(measured_all(timings, &[Isa::Baseline]));
+        assert!(!measured_all(
+            timings,
+            &[Isa::Avx512, Isa::Avx2, Isa::Baseline]
+        ));
+        struct Cached;
+        let id = Id::of::<Cached>(6);
+        lock()
+            .known
+            .insert(key_text(id), (Isa::Avx2, timings.to_string()));
+        let wider = [Isa::Avx512, Isa::Avx2, Isa::Baseline];
+        assert!(matches!(next(id, &wider), Next::Measure(Isa::Avx512, _)));
+        struct CachedToo;
+        let id = Id::of::<CachedToo>(6);
+        lock()
+            .known
+            .insert(key_text(id), (Isa::Avx2, timings.to_string()));
+        assert!(matches!(
+            next(id, &[Isa::Avx2, Isa::Baseline]),
+            Next::Use(Isa::Avx2)
+        ));
     }
 
     #[test]
