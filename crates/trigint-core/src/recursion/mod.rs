@@ -329,9 +329,9 @@ fn observe_range<L: Real, T: Term<L>>(
     let mut base = start;
     if base + 8 <= end {
         // (`store` decided outside the loop: tested inside it, LLVM kept both p's and q's new
-        // chunks on the stack and copied the one chosen through a pointer, at every chunk. The
-        // FPU m = 1000 chain's streamed step, AVX-512 copy on an AMD Zen 5: 1110-1320 ns with
-        // that, 820-930 without, alternated processes.)
+        // chunks on the stack and copied the one chosen through a pointer, at every chunk. One
+        // streamed step of the FPU problem with m = 1000, AVX-512 copy on an AMD Zen 5:
+        // 1110-1320 ns with that, 820-930 without, alternated processes.)
         base = if store {
             chunks::<L, T, true>(start, end, (q, d, p, f), term, &mut e, &mut m)
         } else {
