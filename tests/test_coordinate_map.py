@@ -2,6 +2,7 @@
 the composition of a potential's input map, against NumPy and SciPy written independently."""
 
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -9,8 +10,10 @@ import scipy.sparse
 from test_stiffness import EIGENVALUES, stiffness_with
 
 import trigint as ti
-from trigint import _core
+from trigint import _core, _native
+from trigint._method_names import resolve_method
 from trigint._native import core_layout
+from trigint.integrate import method_coefficients
 
 
 def test_a_diagonal_problem_out_of_order_is_permuted_and_back():
@@ -115,9 +118,62 @@ def test_samples_go_to_the_users_coordinates_in_place_with_the_bits_of_to_user()
         np.testing.assert_array_equal(frozen, x)  # not written
         np.testing.assert_array_equal(lay.samples_to_user(np.array([2, 3, 4, 5]), x.copy(), x0),
                                       lay.map.to_user(x))
+        # rows marked done (in the user's coordinates already) are left as they are
+        y, done = x.copy(), np.array([False, True, False, True])
+        lay.map.to_user_in_place(y, 0, done)
+        np.testing.assert_array_equal(y[done], x[done])
+        np.testing.assert_array_equal(y[~done], lay.map.to_user(x[~done]).reshape(-1, prob.dim))
+        with pytest.raises(ValueError, match=r"done: one flag per row expected \(4\), got 1"):
+            lay.map.to_user_in_place(x.copy(), 0, np.array([True]))
         with pytest.raises(ValueError, match="not a writeable array"):
             lay.map.to_user_in_place(frozen, 1)
         with pytest.raises(ValueError, match="C-contiguous"):
             lay.map.to_user_in_place(np.asfortranarray(x), 1)
         with pytest.raises(ValueError, match="coordinates along the last axis"):
             lay.map.to_user_in_place(np.zeros((2, prob.dim + 1)), 0)
+
+
+
+def _through_the_transform(prob, method, u0, v0, h, n_steps, save_every, form):
+    """A run's samples made with every q row in the core's coordinates, transformed back by the
+    map (step 0 is the user's q0): the samples as they were before the grid values were kept."""
+    lay = _native.core_layout(prob)
+    co = method_coefficients(prob, resolve_method(method), h, form)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a blow-up is the point of one case
+        out = _core.integrate(_native.problem_potential(prob, lay), lay.spec, _native.core_method(prob, co, lay),
+                              lay.to_core(u0), lay.to_core(v0), n_steps, save_every, form, True, 1 << 20, None)
+    s = out.samples[0]
+    assert not s["q_in_user"].any()
+    return s["steps"], lay.samples_to_user(s["steps"], s["q"], u0)
+
+
+@pytest.mark.parametrize("shape", [64, (8, 6)])
+@pytest.mark.parametrize("form", ["two-step", "one-step"])
+def test_a_waves_q_samples_from_the_force_grid_have_the_bits_of_the_transform_back(shape, form):
+    # φ = 1 (B, E): each sample's q is the force evaluation's grid values; φ = sinc (C): the force
+    # is evaluated at φq, so the rows are transformed back. Either way the bits of transforming
+    # every row back. A run that blows up keeps its last good state through the transform.
+    prob = ti.problems.wave(shape, rho=1.0, potential="u**4/4")
+    grid = np.meshgrid(*[2 * np.pi * np.arange(n) / n for n in prob.shape], indexing="ij")
+    u0 = (0.3 * np.cos(grid[0]) + 0.2 * np.sin(2 * grid[-1])).reshape(-1)
+    v0 = (0.1 * np.sin(grid[0] + grid[-1])).reshape(-1)
+    for method in ("B", "E", "C"):
+        steps, expect = _through_the_transform(prob, method, u0, v0, 0.05, 20, 3, form)
+        lay = _native.core_layout(prob)
+        co = method_coefficients(prob, resolve_method(method), 0.05, form)
+        raw = _core.integrate(_native.problem_potential(prob, lay), lay.spec, _native.core_method(prob, co, lay),
+                              lay.to_core(u0), lay.to_core(v0), 20, 3, form, True, 1 << 20, None, q_from_grid=True)
+        taken = raw.samples[0]["q_in_user"]
+        assert taken.tolist() == [method != "C"] * len(steps)  # steps 0, 3, …, 18, 20
+        sol = ti.integrate(prob, method, u0, v0, h=0.05, n_steps=20, save_every=3, form=form, progress=False)
+        np.testing.assert_array_equal(sol.steps, steps)
+        assert np.array_equal(sol.q.view(np.int64), expect.view(np.int64))
+    focusing = ti.problems.wave(32, rho=1.0, potential="-u**4/4")
+    x = 2 * np.pi * np.arange(32) / 32
+    steps, expect = _through_the_transform(focusing, "B", 3 * np.cos(x), np.zeros(32), 0.05, 400, 7, form)
+    with pytest.warns(RuntimeWarning, match="blew up"):
+        sol = ti.integrate(focusing, "B", 3 * np.cos(x), np.zeros(32), h=0.05, n_steps=400, save_every=7,
+                           form=form, progress=False)
+    assert sol.status == "blow-up" and steps[-1] % 7 != 0  # the last good state, kept apart
+    assert np.array_equal(sol.q.view(np.int64), expect.view(np.int64))

@@ -95,6 +95,16 @@ class Channels(Mapping):
         """The values in channel order (a copy)."""
         return self._values.copy()
 
+    def values(self) -> np.ndarray:
+        """The values in channel order, read-only (not copied: :meth:`to_numpy` copies).
+
+        >>> Channels({"total": 1.0, "oscillatory_1": 2.0}).values().tolist()
+        [1.0, 2.0]
+        """
+        view = self._values.view()
+        view.flags.writeable = False
+        return view
+
     def position(self, name: str) -> int:
         """Where channel `name` is in channel order (``to_numpy()[position(name)]`` is its value),
         without walking the names.

@@ -427,7 +427,12 @@ pub fn max_deviation(initial: &[f64], high: &[f64], low: &[f64]) -> Vec<f64> {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Samples {
     pub steps: Vec<u64>,
+    /// The positions, in the core's coordinates except the rows marked in `q_in_user`
     pub q: Vec<f64>,
+    /// Per row, whether its q is in the user's coordinates already (a run that takes them
+    /// from the potential's evaluation: [`Potential::evaluated_in_user_coordinates`](crate::potential::Potential::evaluated_in_user_coordinates));
+    /// empty where no row is
+    pub q_in_user: Vec<bool>,
     pub p: Vec<f64>,
     pub energies: Vec<f64>,
 }

@@ -176,15 +176,18 @@ impl CoordinateMap {
         self.apply(py, x, coordinates::CoordinateMap::to_user)
     }
 
-    /// to_user_in_place(x, first) -> None: rows first, first + 1, … of x (a writeable,
-    /// C-contiguous float64 array; last axis: the core's coordinates) taken to the user's
-    /// coordinates in place, a row at a time through a copy. A run's samples are made so, with
-    /// no second array of their size.
+    /// to_user_in_place(x, first, done=None) -> None: rows first, first + 1, … of x (a
+    /// writeable, C-contiguous float64 array; last axis: the core's coordinates) taken to the
+    /// user's coordinates in place, a row at a time through a copy, except the rows r with
+    /// done[r] (in the user's coordinates already). A run's samples are made so, with no second
+    /// array of their size.
+    #[pyo3(signature = (x, first, done=None))]
     fn to_user_in_place(
         &self,
         py: Python<'_>,
         x: &Bound<'_, PyArrayDyn<f64>>,
         first: usize,
+        done: Option<PyReadonlyArray1<'_, bool>>,
     ) -> PyResult<()> {
         let n = self.map.dim();
         let shape = x.shape().to_vec();
@@ -205,10 +208,24 @@ impl CoordinateMap {
         let rows = x.as_slice_mut().map_err(|_| {
             PyValueError::new_err("x: not a C-contiguous array; use to_user".to_string())
         })?;
+        let done = done
+            .as_ref()
+            .map(|d| d.as_array().to_vec())
+            .unwrap_or_default();
+        let count = rows.len() / n.max(1);
+        if !done.is_empty() && done.len() != count {
+            return Err(PyValueError::new_err(format!(
+                "done: one flag per row expected ({count}), got {}",
+                done.len()
+            )));
+        }
         let map = &*self.map;
         py.detach(|| {
             let mut row = vec![0.0; n];
-            for out in rows.chunks_exact_mut(n.max(1)).skip(first) {
+            for (r, out) in rows.chunks_exact_mut(n.max(1)).enumerate().skip(first) {
+                if done.get(r) == Some(&true) {
+                    continue;
+                }
                 row.copy_from_slice(out);
                 map.to_user(&row, out);
             }

@@ -45,13 +45,15 @@ fn to_py(e: CoreError, pot: &NativePotential) -> PyErr {
 }
 
 /// integrate(potential, layout, method, q0, p0, n_steps, save_every, form, track,
-/// progress_every, progress=None) -> RunResult
+/// progress_every, progress=None, q_from_grid=False) -> RunResult
 ///
 /// `progress(steps_done)` is called every `progress_every` steps and may return False to stop;
 /// Ctrl-C also stops the run, which then reports "interrupted" with its samples.
+/// `q_from_grid`: samples whose q the potential's evaluation made in the user's coordinates (a
+/// wave's grid values, φ = 1) keep them; `samples[0]["q_in_user"]` marks those rows.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (potential, layout, method, q0, p0, n_steps, save_every, form, track, progress_every, progress=None))]
+#[pyo3(signature = (potential, layout, method, q0, p0, n_steps, save_every, form, track, progress_every, progress=None, q_from_grid=false))]
 fn integrate<'py>(
     py: Python<'py>,
     potential: &Bound<'py, PyAny>,
@@ -65,6 +67,7 @@ fn integrate<'py>(
     track: bool,
     progress_every: u64,
     progress: Option<Py<PyAny>>,
+    q_from_grid: bool,
 ) -> PyResult<RunResult> {
     let given = handle::given(potential)?;
     let pot = given.get();
@@ -84,7 +87,16 @@ fn integrate<'py>(
                 report: &mut report,
             };
             with_potential!(pot, |p| trigint_core::integrate_prepared(
-                p, lay, co, &q0, &p0, n_steps, form, record, control
+                p,
+                lay,
+                co,
+                &q0,
+                &p0,
+                n_steps,
+                form,
+                record,
+                control,
+                q_from_grid
             ))
         })
     };

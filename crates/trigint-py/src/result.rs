@@ -136,6 +136,7 @@ fn samples_dict<'py>(
     let k = s.steps.len();
     let d = PyDict::new(py);
     d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
+    d.set_item("q_in_user", PyArray1::from_vec(py, s.q_in_user))?;
     d.set_item("q", to_2d(py, s.q, k, n)?)?;
     d.set_item("p", to_2d(py, s.p, k, n)?)?;
     d.set_item("energies", to_2d(py, s.energies, k, c)?)?;

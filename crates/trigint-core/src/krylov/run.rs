@@ -127,7 +127,7 @@ impl<'a, P: Potential> KrylovRun<'a, P> {
     fn take_observation(&mut self, i: u64, (u, main): Observation, event: bool) {
         {
             let (mut book, good) = parts!(self);
-            book.observe(i, (&self.q, &self.p, u), &main, &[], event, &good);
+            book.observe(i, (&self.q, &self.p, u), None, &main, &[], event, &good);
         }
         self.good.0 = i;
         self.good.1.copy_from_slice(&self.q);

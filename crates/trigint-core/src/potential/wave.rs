@@ -255,6 +255,16 @@ impl Potential for Wave {
         Ok(value)
     }
 
+    /// The grid values u = S x of the last evaluation: the user's coordinates of a wave problem
+    /// (row-major grid values, made by the same [`Spectral::to_grid`] as the coordinate map's
+    /// `to_user`). Lanes share one grid buffer, so a bundle of several has none.
+    fn evaluated_in_user_coordinates<'w, L: Real>(
+        &self,
+        ws: &'w WaveWorkspace,
+    ) -> Option<&'w [f64]> {
+        (L::LANES == 1).then_some(&ws.grid.u[..])
+    }
+
     /// G(q)v = −(1/N) Sᵀ(V''(u) ⊙ S v) with u = S q: two transforms to the grid, the curvature
     /// program of V pointwise, one transform back.
     fn force_derivative(

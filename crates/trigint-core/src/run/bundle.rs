@@ -99,6 +99,9 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     pub(super) lanes: Vec<Lane>,
     /// The lanes still running.
     pub(super) active: LaneSet,
+    /// Keep a sample's q in the user's coordinates where the potential's evaluation made them
+    /// ([`Bundle::with_q_from_grid`]).
+    pub(super) q_from_grid: bool,
 }
 
 /// A bundle's kernel rows and energy weights, made for it or kept by a prepared method.
@@ -178,7 +181,17 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             axes: Vec::new(),
             lanes,
             active: LaneSet::first(count),
+            q_from_grid: false,
         }
+    }
+
+    /// Keeps each sample's q in the user's coordinates where the potential's force evaluation
+    /// at that step made them ([`Potential::evaluated_in_user_coordinates`]: a wave's grid
+    /// values, one trajectory, φ = 1), marked in [`Samples::q_in_user`](crate::energy::Samples::q_in_user);
+    /// the caller transforms the other rows back. The same bits as transforming them all.
+    pub fn with_q_from_grid(mut self, on: bool) -> Self {
+        self.q_from_grid = on;
+        self
     }
 
     /// Streams the layout's pair forms (if any) as the per-axis channels.

@@ -235,12 +235,15 @@ pub fn integrate<P: Potential>(
     check_common(pot, layout, &record)?;
     method.validate(layout.dim(), form == Form::TwoStep)?;
     one_trajectory(
-        pot, layout, None, method, q0, p0, n_steps, form, record, control,
+        pot, layout, None, method, q0, p0, n_steps, form, record, control, false,
     )
 }
 
 /// [`integrate`] with a layout and a method made once for many runs: their checks pass once,
 /// and the kernels' rows made from the method are kept for the next run (the same numbers).
+/// `q_from_grid`: keep the samples' q in the user's coordinates where the potential's
+/// evaluation made them ([`Bundle::with_q_from_grid`]; rows marked in
+/// [`Samples::q_in_user`](crate::energy::Samples::q_in_user)).
 #[allow(clippy::too_many_arguments)]
 pub fn integrate_prepared<P: Potential>(
     pot: &P,
@@ -252,6 +255,7 @@ pub fn integrate_prepared<P: Potential>(
     form: Form,
     record: Record,
     control: Control,
+    q_from_grid: bool,
 ) -> CoreResult<TrajectoryOutput> {
     layout.validate()?;
     check_run(pot, layout, &record)?;
@@ -267,6 +271,7 @@ pub fn integrate_prepared<P: Potential>(
         form,
         record,
         control,
+        q_from_grid,
     )
 }
 
@@ -284,6 +289,7 @@ fn one_trajectory<P: Potential>(
     form: Form,
     record: Record,
     control: Control,
+    q_from_grid: bool,
 ) -> CoreResult<TrajectoryOutput> {
     let n = layout.dim();
     check_state("q0", q0, n, "")?;
@@ -306,7 +312,8 @@ fn one_trajectory<P: Potential>(
             &[p0],
             &[n_steps],
         )
-        .with_pair_forms(layout.pair_forms.as_ref());
+        .with_pair_forms(layout.pair_forms.as_ref())
+        .with_q_from_grid(q_from_grid);
         let mut control = control;
         bundle.run(&mut control)
     })?;

@@ -74,10 +74,20 @@ impl<L: Real> LaneBook<'_, L> {
         r
     }
 
-    /// Keeps lane b's state at `step` (from q and p as given) unless it is kept already or the
-    /// run keeps no samples.
+    /// Keeps lane b's state at `step` (from q and p as given; q from `q_user`, in the user's
+    /// coordinates, where given for a bundle of one lane) unless it is kept already or the run
+    /// keeps no samples.
     #[inline(never)]
-    pub fn keep(&mut self, b: usize, step: u64, q: &[L], p: &[L], row: Vec<f64>) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn keep(
+        &mut self,
+        b: usize,
+        step: u64,
+        q: &[L],
+        p: &[L],
+        q_user: Option<&[f64]>,
+        row: Vec<f64>,
+    ) {
         let lane = &mut self.lanes[b];
         let s = &mut lane.samples;
         let Some(every) = self.record.save_every else {
@@ -92,12 +102,18 @@ impl<L: Real> LaneBook<'_, L> {
             // does not copy them as they grow (1 MiB per growth at 2^16 coordinates).
             let k = (lane.n_steps / every.max(1)).saturating_add(2).min(4) as usize;
             s.steps.reserve_exact(k);
+            s.q_in_user.reserve_exact(k);
             s.q.reserve_exact(k * q.len());
             s.p.reserve_exact(k * p.len());
             s.energies.reserve_exact(k * row.len());
         }
         s.steps.push(step);
-        s.q.extend(q.iter().map(|x| x.lane(b)));
+        let q_user = q_user.filter(|u| L::LANES == 1 && u.len() == q.len());
+        match q_user {
+            Some(u) => s.q.extend_from_slice(u),
+            None => s.q.extend(q.iter().map(|x| x.lane(b))),
+        }
+        s.q_in_user.push(q_user.is_some());
         s.p.extend(p.iter().map(|x| x.lane(b)));
         s.energies.extend(row);
     }
@@ -105,7 +121,7 @@ impl<L: Real> LaneBook<'_, L> {
     /// Keeps lane b's last good state.
     pub fn keep_good(&mut self, b: usize, good: &Good<'_, L>) {
         let row = self.row(good.main, good.blocks, b);
-        self.keep(b, good.step, good.q, good.p, row);
+        self.keep(b, good.step, good.q, good.p, None, row);
     }
 
     /// Freezes lane b's extremes and takes it out of the running.
@@ -173,14 +189,16 @@ impl<L: Real> LaneBook<'_, L> {
         }
     }
 
-    /// What a careful step does with its observation of step i (state q, p; U in `u`): lanes
-    /// not finite blow up, extremes, samples at events, lanes that end there.
+    /// What a careful step does with its observation of step i (state q, p; U in `u`; q in the
+    /// user's coordinates in `q_user`, where the potential's evaluation made them): lanes not
+    /// finite blow up, extremes, samples at events, lanes that end there.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     pub fn observe(
         &mut self,
         i: u64,
         (q, p, u): (&[L], &[L], L),
+        q_user: Option<&[f64]>,
         main: &[L; FIRST_BLOCK],
         blocks: &[L],
         event: bool,
@@ -200,7 +218,7 @@ impl<L: Real> LaneBook<'_, L> {
                 let ends = self.lanes[b].n_steps == i;
                 if ends || sampling {
                     let row = self.row(main, blocks, b);
-                    self.keep(b, i, q, p, row);
+                    self.keep(b, i, q, p, q_user, row);
                 }
                 if ends {
                     self.end_lane(b, Status::Completed, i, format!("completed {i} steps"));
@@ -270,7 +288,11 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         {
             let (mut lanes, good) = parts!(self);
             let state = (self.st.q.get(), self.st.p.get(), self.st.u);
-            lanes.observe(i, state, main, blocks, event, &good);
+            // (the force was evaluated at φq_n = q_n: its grid values are the sample's q)
+            let q_user = (self.q_from_grid && self.k.phi_is_identity)
+                .then(|| self.pot.evaluated_in_user_coordinates::<L>(&self.ws))
+                .flatten();
+            lanes.observe(i, state, q_user, main, blocks, event, &good);
         }
         self.good.step = i;
         // The last good state is read only to keep it as a lane's last sample, which `keep`

@@ -130,7 +130,7 @@ fn a_prepared_layout_and_method_give_the_bits_of_a_plain_run_at_every_call() {
             };
             let (q, p) = (&q0[..], &p0[..]);
             if prepared {
-                integrate_prepared(&wave, &lay, &co, q, p, 200, form, record, control)
+                integrate_prepared(&wave, &lay, &co, q, p, 200, form, record, control, false)
             } else {
                 integrate(
                     &wave, &plain_lay, &plain_co, q, p, 200, form, record, control,
@@ -165,6 +165,7 @@ fn a_prepared_layout_and_method_give_the_bits_of_a_plain_run_at_every_call() {
         Form::TwoStep,
         record,
         control,
+        false,
     );
     assert!(e
         .unwrap_err()
