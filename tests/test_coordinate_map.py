@@ -145,7 +145,7 @@ def _through_the_transform(prob, method, u0, v0, h, n_steps, save_every, form):
                               lay.to_core(u0), lay.to_core(v0), n_steps, save_every, form, True, 1 << 20, None)
     s = out.samples[0]
     assert not s["q_in_user"].any()
-    return s["steps"], lay.samples_to_user(s["steps"], s["q"], u0)
+    return s["steps"], lay.samples_to_user(s["steps"], s["q"], u0), lay.samples_to_user(s["steps"], s["p"], v0)
 
 
 @pytest.mark.parametrize("shape", [64, (8, 6)])
@@ -159,7 +159,7 @@ def test_a_waves_q_samples_from_the_force_grid_have_the_bits_of_the_transform_ba
     u0 = (0.3 * np.cos(grid[0]) + 0.2 * np.sin(2 * grid[-1])).reshape(-1)
     v0 = (0.1 * np.sin(grid[0] + grid[-1])).reshape(-1)
     for method in ("B", "E", "C"):
-        steps, expect = _through_the_transform(prob, method, u0, v0, 0.05, 20, 3, form)
+        steps, expect, expect_p = _through_the_transform(prob, method, u0, v0, 0.05, 20, 3, form)
         lay = _native.core_layout(prob)
         co = method_coefficients(prob, resolve_method(method), 0.05, form)
         raw = _core.integrate(_native.problem_potential(prob, lay), lay.spec, _native.core_method(prob, co, lay),
@@ -169,11 +169,32 @@ def test_a_waves_q_samples_from_the_force_grid_have_the_bits_of_the_transform_ba
         sol = ti.integrate(prob, method, u0, v0, h=0.05, n_steps=20, save_every=3, form=form, progress=False)
         np.testing.assert_array_equal(sol.steps, steps)
         assert np.array_equal(sol.q.view(np.int64), expect.view(np.int64))
+        assert np.array_equal(sol.p.view(np.int64), expect_p.view(np.int64))
     focusing = ti.problems.wave(32, rho=1.0, potential="-u**4/4")
     x = 2 * np.pi * np.arange(32) / 32
-    steps, expect = _through_the_transform(focusing, "B", 3 * np.cos(x), np.zeros(32), 0.05, 400, 7, form)
+    # (from rest: p0 = 0 goes in as the kept image of zero, the transform's bits)
+    steps, expect, expect_p = _through_the_transform(focusing, "B", 3 * np.cos(x), np.zeros(32), 0.05, 400, 7, form)
     with pytest.warns(RuntimeWarning, match="blew up"):
         sol = ti.integrate(focusing, "B", 3 * np.cos(x), np.zeros(32), h=0.05, n_steps=400, save_every=7,
                            form=form, progress=False)
     assert sol.status == "blow-up" and steps[-1] % 7 != 0  # the last good state, kept apart
     assert np.array_equal(sol.q.view(np.int64), expect.view(np.int64))
+    assert np.array_equal(sol.p.view(np.int64), expect_p.view(np.int64))
+
+
+def test_a_wave_state_at_rest_goes_in_as_the_kept_image_of_zero_with_the_transforms_bits():
+    for prob in (ti.problems.wave(64, rho=1.0), ti.problems.wave((8, 6), rho=1.0)):
+        lay = _native.core_layout(prob)
+        zero = np.zeros(prob.dim)
+        image = lay.state_to_core(zero)
+        assert image is lay.state_to_core(np.zeros(prob.dim)) and not image.flags.writeable
+        assert np.array_equal(image.view(np.int64), lay.to_core(zero).view(np.int64))
+        # a −0.0 entry is not +0.0: it goes through the transform, whatever signs it gives
+        signed = zero.copy()
+        signed[3] = -0.0
+        assert lay.state_to_core(signed) is not image
+        assert np.array_equal(lay.state_to_core(signed).view(np.int64), lay.to_core(signed).view(np.int64))
+        x = np.linspace(-1.0, 1.0, prob.dim)
+        assert np.array_equal(lay.state_to_core(x).view(np.int64), lay.to_core(x).view(np.int64))
+    fpu = _native.core_layout(ti.problems.fpu(m=2))  # no transform to save: the state itself
+    assert np.array_equal(fpu.state_to_core(np.zeros(4)), np.zeros(4))

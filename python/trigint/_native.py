@@ -82,6 +82,23 @@ class CoreLayout:
         x = np.asarray(x, dtype=float)
         return x if self.map.is_identity else self.map.to_core(x)
 
+    def state_to_core(self, x: np.ndarray) -> np.ndarray:
+        """A run's initial state (one row) in the core's coordinates, as :meth:`to_core`. On a
+        wave grid a state at rest (every entry +0.0: u_t = 0, as waves often start) is the kept
+        image of zero, the same bits without a transform (0.1 ms on 2¹⁶ points)."""
+        x = np.asarray(x, dtype=float)
+        # (the bits, not the values: a −0.0 entry may give other signs of zero through the FFT)
+        if self.map.kind == "fourier" and x.ndim == 1 and not x.view(np.int64).any():
+            return self._zero_image
+        return self.to_core(x)
+
+    @functools.cached_property
+    def _zero_image(self) -> np.ndarray:
+        """to_core of the zero state, made once (read-only)."""
+        z = self.map.to_core(np.zeros(self.map.dim))
+        z.flags.writeable = False
+        return z
+
     def to_user(self, x: np.ndarray) -> np.ndarray:
         """Core coordinates → user coordinates along the last axis."""
         x = np.asarray(x, dtype=float)
@@ -300,7 +317,7 @@ def integrate(problem, co, q0, p0, n_steps, save_every, form, track, every, call
     lay = core_layout(problem)
     out = _core.integrate(
         problem_potential(problem, lay), lay.spec, core_method(problem, co, lay),
-        lay.to_core(q0), lay.to_core(p0), int(n_steps), int(save_every), form, bool(track),
+        lay.state_to_core(q0), lay.state_to_core(p0), int(n_steps), int(save_every), form, bool(track),
         int(every), callback, q_from_grid=lay.map.kind == "fourier",
     )
     s = out.samples[0]
