@@ -141,3 +141,24 @@ def test_custom_blocks():
                        ([0, 2, 2, 3], r"none skipped, got \[2, 3\]"), ([0, 1, -1, 2], r"blocks\[2\] = -1")]:
         with pytest.raises(ValueError, match=match):
             ti.OscillatoryProblem(omega, pot, blocks=bad)
+
+
+def test_a_used_problem_pickles_as_a_fresh_one_and_runs_with_the_same_bits():
+    # What calls keep on a problem (layout, methods, coefficients, the mode index) is keyed by
+    # object ids and, on a large wave, tens of MB: a pickle (an ensemble's task) leaves it out.
+    import pickle
+
+    wave = ti.problems.wave(256, rho=1.0, potential="u**4/4")
+    u0 = 0.1 * np.cos(2 * np.pi * np.arange(256) / 256)
+    fpu = ti.problems.fpu(m=3, omega=50.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=50.0)
+    for prob, q, p in ((wave, u0, np.zeros(256)), (fpu, q0, p0)):
+        fresh = len(pickle.dumps(prob))
+        first = ti.integrate(prob, "B", q, p, h=0.01, n_steps=20, save_every=5, progress=False)
+        assert any(k in prob.__dict__ for k in prob.KEPT_FOR_CALLS)  # the calls kept something
+        assert len(pickle.dumps(prob)) == fresh
+        again = ti.integrate(pickle.loads(pickle.dumps(prob)), "B", q, p, h=0.01, n_steps=20, save_every=5,
+                             progress=False)
+        assert np.array_equal(first.q.view(np.int64), again.q.view(np.int64))
+        assert np.array_equal(first.p.view(np.int64), again.p.view(np.int64))
+        assert first.max_deviation == again.max_deviation

@@ -250,6 +250,18 @@ class OscillatoryProblem:
         fast = self.omega[self.omega > 0]
         return float(1.0 / fast.min()) if fast.size else float("inf")
 
+    #: what calls keep on a problem for the next call (the core's layout and methods, the
+    #: coefficients, the resonance check's mode index): keyed by objects' ids, so worthless in
+    #: another process, and on a 2¹⁶-point wave tens of MB that a pickle (an ensemble's task)
+    #: would carry
+    KEPT_FOR_CALLS = ("_core_layout", "_core_methods", "_coefficients_kept", "_modified_finite",
+                      "_n_blocks_kept", "_mode_index", "_mode_list")
+
+    def __getstate__(self) -> dict:
+        """The problem without what its calls kept (:data:`KEPT_FOR_CALLS`): a used problem
+        pickles as a fresh one does, and its next call makes them again."""
+        return {k: v for k, v in self.__dict__.items() if k not in self.KEPT_FOR_CALLS}
+
     def __repr__(self) -> str:
         if not self.stepper.has_spectrum:
             return (f"OscillatoryProblem(n={self.dim}, sparse stiffness matrix with {self.stiffness.nnz} entries, "
