@@ -430,8 +430,8 @@ pub struct Samples {
     /// The positions, in the core's coordinates except the rows marked in `q_in_user`
     pub q: Vec<f64>,
     /// Per row, whether its q is in the user's coordinates already (a run that takes them
-    /// from the potential's evaluation: [`Potential::evaluated_in_user_coordinates`](crate::potential::Potential::evaluated_in_user_coordinates));
-    /// empty where no row is
+    /// from the potential's evaluation: [`Potential::evaluated_in_user_coordinates`](crate::potential::Potential::evaluated_in_user_coordinates)):
+    /// one flag per row from the recursion's bundles, empty from the other steppers (none is)
     pub q_in_user: Vec<bool>,
     pub p: Vec<f64>,
     pub energies: Vec<f64>,
