@@ -95,10 +95,11 @@ class Channels(Mapping):
         """The values in channel order (a copy)."""
         return self._values.copy()
 
-    def values(self) -> np.ndarray:
-        """The values in channel order, read-only (not copied: :meth:`to_numpy` copies).
+    def as_array(self) -> np.ndarray:
+        """The values in channel order, read-only (not copied: :meth:`to_numpy` copies; the
+        Mapping's ``values()`` stays a view of floats).
 
-        >>> Channels({"total": 1.0, "oscillatory_1": 2.0}).values().tolist()
+        >>> Channels({"total": 1.0, "oscillatory_1": 2.0}).as_array().tolist()
         [1.0, 2.0]
         """
         view = self._values.view()

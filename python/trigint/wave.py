@@ -290,7 +290,7 @@ class WaveProblem(OscillatoryProblem):
             return
         channels = sol.initial_energies
         first = channels.position("oscillatory_1")  # the per-mode channels, in block order
-        initial = channels.values()[first:first + len(self.modes)]  # (read-only; not copied)
+        initial = channels.as_array()[first:first + len(self.modes)]  # (read-only; not copied)
         tolerance = min(float(np.sqrt(sol.h)), 0.1)
         found = energy_resonances(self, sol.h, initial, tolerance=tolerance)
         if not found:
