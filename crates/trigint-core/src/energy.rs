@@ -269,39 +269,63 @@ pub fn halve_into_extremes<L: Real>(sums: &mut [L], high: &mut [L], low: &mut [L
 /// loads are forwarded from these stores. (Written as a loop over the numbers, the vectorizer
 /// made masked stores of it, `vmaskmovpd`, microcoded on AMD Zen 3: 15 → 24 ns a step.)
 /// `maxpd(e, hi)` is `if e > hi { e } else { hi }` per number, [`Real::keep_max`]: the same
-/// bits as [`Extremes::update`].
+/// bits as [`Extremes::update`]. With `PLAIN` (H* is H_ω) H*'s channel is left out, as in
+/// [`Extremes::update_plain`]: four channels, two pairs.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
-pub struct PackedExtremes {
+pub struct PackedExtremes<const PLAIN: bool> {
     high: [f64; PACKED],
     low: [f64; PACKED],
 }
 
-/// Numbers in a row of [`PackedExtremes`]: the whole-state channels, padded to whole pairs.
+/// Room in a row of [`PackedExtremes`]: the whole-state channels, padded to whole pairs.
 pub const PACKED: usize = FIRST_BLOCK.next_multiple_of(2);
 
-impl PackedExtremes {
+/// The channel at each place of a packed row: every whole-state channel in order, or all but
+/// H*'s where it repeats H_ω's; the last one repeated to the end of the row.
+const fn packed_order(plain: bool) -> [usize; PACKED] {
+    let mut order = [0; PACKED];
+    let (mut k, mut c) = (0, 0);
+    while c < FIRST_BLOCK {
+        if !(plain && c == MODIFIED) {
+            order[k] = c;
+            k += 1;
+        }
+        c += 1;
+    }
+    while k < PACKED {
+        order[k] = order[k - 1];
+        k += 1;
+    }
+    order
+}
+
+impl<const PLAIN: bool> PackedExtremes<PLAIN> {
+    const ORDER: [usize; PACKED] = packed_order(PLAIN);
+    /// The numbers taken at each step: the channels kept, padded to whole pairs.
+    const USED: usize = (FIRST_BLOCK - PLAIN as usize).next_multiple_of(2);
+
     /// The whole-state extremes of lane 0 (a one-lane `L`).
     #[inline(always)]
     pub fn of<L: Real>(ext: &Extremes<L>) -> Self {
-        let last = FIRST_BLOCK - 1;
         PackedExtremes {
-            high: std::array::from_fn(|c| ext.high[c.min(last)].lane(0)),
-            low: std::array::from_fn(|c| ext.low[c.min(last)].lane(0)),
+            high: std::array::from_fn(|i| ext.high[Self::ORDER[i]].lane(0)),
+            low: std::array::from_fn(|i| ext.low[Self::ORDER[i]].lane(0)),
         }
     }
 
     /// Takes one step's channels (lane 0) into the running extremes.
     #[inline(always)]
     pub fn update<L: Real>(&mut self, main: &[L; FIRST_BLOCK]) {
-        let row: [f64; PACKED] = std::array::from_fn(|c| main[c.min(FIRST_BLOCK - 1)].lane(0));
+        let row: [f64; PACKED] = std::array::from_fn(|i| main[Self::ORDER[i]].lane(0));
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{
                 _mm_loadu_pd, _mm_max_pd, _mm_min_pd, _mm_set_pd, _mm_storeu_pd,
             };
-            for c in (0..PACKED).step_by(2) {
-                // SAFETY: SSE2 is part of x86_64; c + 1 < PACKED, so each pair is in bounds.
+            for c in (0..Self::USED).step_by(2) {
+                // SAFETY: SSE2 is part of x86_64; c + 1 < USED <= PACKED, so each pair is in
+                // bounds.
                 unsafe {
                     let e = _mm_set_pd(row[c + 1], row[c]);
                     let (hi, lo) = (self.high.as_mut_ptr().add(c), self.low.as_mut_ptr().add(c));
@@ -311,18 +335,19 @@ impl PackedExtremes {
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        for c in 0..PACKED {
+        for c in 0..Self::USED {
             self.high[c] = self.high[c].keep_max(row[c]);
             self.low[c] = self.low[c].keep_min(row[c]);
         }
     }
 
-    /// Writes the extremes back into lane 0 of `ext`.
+    /// Writes the extremes back into lane 0 of `ext` (with `PLAIN`, H*'s are then still to be
+    /// repeated from H_ω's: [`Extremes::repeat_oscillatory`]).
     #[inline(always)]
     pub fn store<L: Real>(&self, ext: &mut Extremes<L>) {
-        for c in 0..FIRST_BLOCK {
-            ext.high[c].set_lane(0, self.high[c]);
-            ext.low[c].set_lane(0, self.low[c]);
+        for i in 0..Self::USED {
+            ext.high[Self::ORDER[i]].set_lane(0, self.high[i]);
+            ext.low[Self::ORDER[i]].set_lane(0, self.low[i]);
         }
     }
 }
@@ -360,6 +385,30 @@ impl<L: Real> Extremes<L> {
             self.high[c] = self.high[c].keep_max(main[c]);
             self.low[c] = self.low[c].keep_min(main[c]);
         }
+    }
+
+    /// [`update`](Self::update) where H* is H_ω (`plain_modified`): H*'s channel repeats H_ω's
+    /// value, so its extremes are left to [`repeat_oscillatory`](Self::repeat_oscillatory),
+    /// called once the loop is left. Two comparisons fewer a step, in a one-trajectory loop
+    /// whose additions and comparisons share two pipes (AMD Zen 4 and 5).
+    #[inline(always)]
+    pub fn update_plain(&mut self, main: &[L; FIRST_BLOCK]) {
+        // (A test in a loop that unrolls, not a filtered range: that one was left a loop over
+        // the extremes in memory.)
+        for c in 0..FIRST_BLOCK {
+            if c != MODIFIED {
+                self.high[c] = self.high[c].keep_max(main[c]);
+                self.low[c] = self.low[c].keep_min(main[c]);
+            }
+        }
+    }
+
+    /// H*'s extremes as H_ω's, after [`update_plain`](Self::update_plain): the numbers
+    /// [`update`](Self::update) would have left, since each step's two values are the same.
+    #[inline(always)]
+    pub fn repeat_oscillatory(&mut self) {
+        self.high[MODIFIED] = self.high[OSCILLATORY];
+        self.low[MODIFIED] = self.low[OSCILLATORY];
     }
 
     /// Takes the per-block channels (ℓ > 1, else empty) and then the per-axis ones.
@@ -483,5 +532,53 @@ mod tests {
             assert_eq!(bits(&h1), bits(&h2), "n = {n}");
             assert_eq!(bits(&l1), bits(&l2), "n = {n}");
         }
+    }
+
+    /// Where H* is H_ω, the steps' extremes taken without H*'s (in registers and packed in
+    /// pairs) and H*'s repeated from H_ω's at the end are the extremes of every channel taken at
+    /// every step, bit for bit, through NaN, infinite and signed-zero energies.
+    #[test]
+    fn extremes_without_the_repeated_channel_are_all_channels_extremes() {
+        use super::{Extremes, PackedExtremes, Sums, FIRST_BLOCK};
+        let steps: Vec<[f64; FIRST_BLOCK]> = (0..300)
+            .map(|j| {
+                let s = Sums([
+                    match j % 11 {
+                        4 => f64::NAN,
+                        7 => -0.0,
+                        _ => (j as f64 * 0.31).sin().abs(),
+                    },
+                    match j % 13 {
+                        5 => f64::INFINITY,
+                        9 => 0.0,
+                        _ => (j as f64 * 0.17).cos() * 3.0,
+                    },
+                    0.0,
+                ]);
+                s.channels((j as f64 * 0.05).sin(), true)
+            })
+            .collect();
+        let start = Extremes::<f64>::new(1, 0);
+        let (mut every, mut plain) = (start.clone(), start.clone());
+        let mut packed = PackedExtremes::<true>::of(&start);
+        for main in &steps {
+            every.update(main);
+            plain.update_plain(main);
+            packed.update(main);
+        }
+        plain.repeat_oscillatory();
+        let mut from_packed = start;
+        packed.store(&mut from_packed);
+        from_packed.repeat_oscillatory();
+        let bits = |e: &Extremes<f64>| {
+            let row = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            (row(&e.high), row(&e.low))
+        };
+        assert_eq!(bits(&plain), bits(&every));
+        assert_eq!(bits(&from_packed), bits(&every));
+        assert!(every
+            .high
+            .iter()
+            .all(|x| x.is_finite() || *x == f64::INFINITY));
     }
 }

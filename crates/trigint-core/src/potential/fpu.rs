@@ -123,27 +123,26 @@ impl Fpu {
         };
         // Spring 0 joins the wall to the first stiff spring: d = x₀,₁ − x₁,₁.
         let d = x0[0] - x1[0];
-        let d3 = d * d * d;
-        term(0, d, d3);
-        f0[0] = -d3;
-        f1[0] = d3;
+        let mut before = d * d * d;
+        term(0, d, before);
         for i in 1..m {
             // Spring i: d = (x₀,ᵢ₊₁ − x₁,ᵢ₊₁) − (x₀,ᵢ + x₁,ᵢ) (0-based: i and i − 1), grouped
             // as a tree so that the step's critical path is one addition shorter.
             let d = (x0[i] - x1[i]) - (x0[i - 1] + x1[i - 1]);
             let d3 = d * d * d;
             term(i, d, d3);
-            f0[i - 1] += d3;
-            f1[i - 1] += d3;
-            f0[i] = -d3;
-            f1[i] = d3;
+            // g₀,ᵢ = −d³ᵢ + d³ᵢ₊₁, taken as d³ᵢ₊₁ − d³ᵢ: the same number (a − b is a + (−b), and
+            // the sum does not depend on the order), without the negation.
+            f0[i - 1] = d3 - before;
+            f1[i - 1] = before + d3;
+            before = d3;
         }
         // Spring m joins the last stiff spring to the wall: d = x₀,ₘ + x₁,ₘ.
         let d = x0[m - 1] + x1[m - 1];
         let d3 = d * d * d;
         term(m, d, d3);
-        f0[m - 1] -= d3;
-        f1[m - 1] -= d3;
+        f0[m - 1] = -before - d3;
+        f1[m - 1] = before - d3;
         if VALUE {
             parts.total(m + 1)
         } else {

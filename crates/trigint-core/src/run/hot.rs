@@ -230,11 +230,11 @@ impl<
         // φ ≡ 1: a constant for compile-time shapes, else the (loop-invariant) flag, so that
         // long chains skip the product φq and the second evaluation of U as well.
         let phi = PHI || (!Sh::FIXED && k.phi_is_identity);
-        // Tracked runs: 0 while every total energy so far is finite, NaN once one is not.
+        // Tracked runs: ±0 while every total energy so far is finite, NaN once one is not (0 × ±∞
+        // is NaN, and NaN × x stays NaN): one multiplication a step.
         let mut guard = L::zero();
-        let zero = L::zero();
         // One lane on 16 vector registers: its whole-state extremes in pairs, in memory.
-        let mut packed = PackedExtremes::of(ext);
+        let mut packed = PackedExtremes::<PLAIN>::of(ext);
         for j in n..e {
             // One trajectory of a compile-time shape with an inline force, on 16 vector
             // registers: the step is taken as the unobserved loop takes it, and (q_n, p_n) are
@@ -287,12 +287,14 @@ impl<
             };
             if TRACK {
                 let main = sums.channels(st.u, PLAIN);
-                guard += main[TOTAL] * zero;
+                guard *= main[TOTAL];
                 if extremes_in_memory {
                     packed.update(&main);
                     // The extremes' address escapes: they are stored here and reloaded when
                     // next needed, rather than kept in registers across the step.
                     std::hint::black_box(&mut packed);
+                } else if PLAIN {
+                    ext.update_plain(&main);
                 } else {
                     ext.update(&main);
                 }
@@ -321,16 +323,28 @@ impl<
                 };
                 if !(bad & active).is_empty() {
                     // Replayed from the checkpoint, extremes included.
-                    if extremes_in_memory {
-                        packed.store(ext);
-                    }
+                    finish_extremes::<L, TRACK, PLAIN>(ext, &packed, extremes_in_memory);
                     return Ok(Some(j));
                 }
             }
         }
-        if extremes_in_memory {
-            packed.store(ext);
-        }
+        finish_extremes::<L, TRACK, PLAIN>(ext, &packed, extremes_in_memory);
         Ok(None)
+    }
+}
+
+/// The loop's extremes back in `ext` as [`Extremes::update`] at every step would have left
+/// them: from memory where they were kept there, and H*'s from H_ω's where they were skipped.
+#[inline(always)]
+fn finish_extremes<L: Real, const TRACK: bool, const PLAIN: bool>(
+    ext: &mut Extremes<L>,
+    packed: &PackedExtremes<PLAIN>,
+    extremes_in_memory: bool,
+) {
+    if extremes_in_memory {
+        packed.store(ext);
+    }
+    if TRACK && PLAIN {
+        ext.repeat_oscillatory();
     }
 }

@@ -309,7 +309,8 @@ fn step_lane_group<
         }
         if TRACK {
             let main = sums.channels(s.u, PLAIN);
-            set(guard, b, at(guard, b) + main[TOTAL] * 0.0);
+            // Sticky: ±0 while every total is finite, NaN from the first that is not.
+            set(guard, b, at(guard, b) * main[TOTAL]);
             for (c, &x) in main.iter().enumerate() {
                 if PLAIN && c == MODIFIED {
                     // H* = H_ω: its extremes are copied from H_ω's at the end (the slot in
