@@ -262,8 +262,9 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
         }
     }
 
-    /// One tangent step from δq_n, δd_n: δd_{n+1}, δp_n and δq_{n+1}, keeping δq_n when `keep`
-    /// (where the vectors are read: an event).
+    /// One tangent step from δq_n, δd_n: δd_{n+1} and δq_{n+1}, and with `keep` (where the
+    /// vectors are read: an event) δp_n, keeping δq_n. (Between events δp_n is not read: the
+    /// steps there leave it out, two operations a coordinate.)
     #[inline(always)]
     fn step(&mut self, keep: bool) {
         let (ns, n, t) = (self.sh.ns(), self.sh.n(), &self.t);
@@ -282,13 +283,17 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             }
             for i in 0..ns {
                 let next = d[i] + t.h2 * g[i];
-                p[i] = (next + d[i]) * t.inv_2h;
+                if keep {
+                    p[i] = (next + d[i]) * t.inv_2h;
+                }
                 d[i] = next;
                 q[i] += next;
             }
             for i in ns..n {
                 let next = d[i] - a[i] * q[i] + hp[i] * g[i];
-                p[i] = (next + d[i]) * inv[i];
+                if keep {
+                    p[i] = (next + d[i]) * inv[i];
+                }
                 d[i] = next;
                 q[i] += next;
             }
