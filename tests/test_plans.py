@@ -99,6 +99,31 @@ def test_a_damaged_or_unwritable_cache_is_passed_over_with_a_one_line_note(tmp_p
     assert err.count("\n") == 1 and err.startswith("trigint: could not write the kernel plan cache"), err
 
 
+def test_plans_of_another_build_are_dropped_quietly_and_measured_again(tmp_path):
+    cache = tmp_path / "cache"
+    cfg = info(TRIGINT_CACHE_DIR=str(cache))
+    if len([c for c in cfg["copies"] if c != "baseline"]) <= 1:
+        return  # no choice, nothing is measured, so no cache is read or written
+    assert len(cfg["core_build"]) == 16 and int(cfg["core_build"], 16) >= 0
+    cache.mkdir()
+    path = cache / os.path.basename(cfg["plan_cache"])
+    other = "0123456789abcdef" if cfg["core_build"] != "0123456789abcdef" else "fedcba9876543210"
+    stale = (f"# trigint kernel plans, format 2; core {cfg['core']}; build {other}; cpu {cfg['cpu']}\n"
+             "baseline\tStale<'_, Scalar> n<=2^3\tbaseline=1.0\n")
+    path.write_text(stale)
+    assert not any("Stale" in row["loop"] for row in info(TRIGINT_CACHE_DIR=str(cache))["plans"])
+    script = ("import numpy as np, trigint as ti; prob = ti.problems.fpu(3, 50.0); "
+              "q0, p0 = ti.problems.fpu_initial(3, 50.0); "
+              "ti.integrate(prob, 'B', q0, p0, h=0.04, n_steps=200_000, save_every=200_000)")
+    env = {k: v for k, v in os.environ.items() if k not in ("TRIGINT_ISA", "TRIGINT_PLAN")}
+    done = subprocess.run([sys.executable, "-W", "ignore", "-c", script], capture_output=True, text=True,
+                          timeout=120, env={**env, "TRIGINT_CACHE_DIR": str(cache)})
+    assert done.returncode == 0 and done.stderr == "", done.stderr  # no note: nothing was damaged
+    lines = path.read_text().splitlines()
+    assert f"build {cfg['core_build']};" in lines[0] and other not in lines[0]
+    assert len(lines) >= 2 and not any("Stale" in line for line in lines)
+
+
 def test_info_names_the_cpu_the_copies_and_the_cache():
     cfg = info(TRIGINT_ISA="avx2")
     assert cfg["cpu"] and cfg["plan_mode"] == "fixed by TRIGINT_ISA"

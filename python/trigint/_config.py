@@ -19,6 +19,7 @@ def config() -> dict:
     return {
         "trigint": __version__,
         "core": kernels.pop("core_version"),
+        "core_build": kernels.pop("core_build"),
         "python": sys.version.split()[0],
         "numpy": numpy.__version__,
         "platform": platform.platform(),
@@ -30,7 +31,8 @@ def format_config(cfg: dict) -> str:
     """``config()`` as the text ``show_config`` prints."""
     cap = cfg["isa_cap"]
     lines = [
-        f"trigint {cfg['trigint']} (core {cfg['core']}), Python {cfg['python']}, NumPy {cfg['numpy']}",
+        f"trigint {cfg['trigint']} (core {cfg['core']}, build {cfg['core_build']}), Python {cfg['python']}, "
+        f"NumPy {cfg['numpy']}",
         f"platform:      {cfg['platform']}",
         f"CPU:           {cfg['cpu']}",
         f"features:      {', '.join(cfg['features']) or 'none of avx2, avx512f/vl/dq'}",

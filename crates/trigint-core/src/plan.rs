@@ -404,12 +404,22 @@ pub fn cache_path() -> Option<PathBuf> {
     Some(dir.join(file))
 }
 
+/// The cache's first line: the format, the core's version and build (a hash of its sources,
+/// from `build.rs`) and the CPU.
 fn header() -> String {
     format!(
-        "# trigint kernel plans, format 2; core {}; cpu {}",
+        "{HEADER_START} 2; core {}; build {}; cpu {}",
         env!("CARGO_PKG_VERSION"),
+        build_id(),
         crate::cpu::model()
     )
+}
+
+const HEADER_START: &str = "# trigint kernel plans, format";
+
+/// The kernels' build identity (see `build.rs`).
+pub fn build_id() -> &'static str {
+    env!("TRIGINT_KERNEL_BUILD")
 }
 
 /// The plans in the cache, or none with a note if it is damaged (a missing file is no news).
@@ -432,10 +442,15 @@ fn read_cache(path: &PathBuf) -> HashMap<String, (Isa, String)> {
     }
 }
 
+/// The plans of a cache file; none, without a note, from a cache of other kernels (another
+/// version or build of the core, or an older format): its timings are not of these kernels'
+/// loops, so they are measured again and the file rewritten.
 fn parse_cache(text: &str) -> Result<HashMap<String, (Isa, String)>, String> {
     let mut lines = text.lines();
-    if lines.next() != Some(header().as_str()) {
-        return Err("its first line is not this version's header".into());
+    match lines.next() {
+        Some(first) if first == header() => {}
+        Some(first) if first.starts_with(HEADER_START) => return Ok(HashMap::new()),
+        _ => return Err("its first line is not a kernel plan header".into()),
     }
     let mut known = HashMap::new();
     for (i, line) in lines.enumerate() {
@@ -506,6 +521,11 @@ mod tests {
         let known = parse_cache(&text).unwrap();
         assert_eq!(known["Loop<f64> n<=2^3"].0, Isa::Avx2);
         assert!(parse_cache("garbage").is_err());
+        // Plans of other kernels (another build, an older format) are dropped without a note.
+        let other = text.replace(build_id(), "0123456789abcdef");
+        assert!(parse_cache(&other).unwrap().is_empty());
+        let older = "# trigint kernel plans, format 1; core 0.1.0; cpu X\navx2\tLoop\tavx2=1\n";
+        assert!(parse_cache(older).unwrap().is_empty());
         let bad = format!("{}\nsse9\tLoop\tx\n", header());
         assert!(parse_cache(&bad).unwrap_err().contains("sse9"));
     }

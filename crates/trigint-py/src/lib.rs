@@ -295,6 +295,7 @@ fn kernel_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     }
     d.set_item("plans", rows)?;
     d.set_item("core_version", env!("CARGO_PKG_VERSION"))?;
+    d.set_item("core_build", plan::build_id())?;
     Ok(d)
 }
 
