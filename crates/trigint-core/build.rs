@@ -1,6 +1,7 @@
-//! The kernels' build identity: a hash of the crate's sources, which the kernel plan cache is
-//! stamped with (`plan::header`), so that plans measured on other kernels (a rebuild from
-//! changed sources under the same version number) are measured again rather than reused.
+//! The kernels' build identity: a hash of the crate's sources, the compiler's version, the
+//! profile and the Rust flags, which the kernel plan cache is stamped with (`plan/cache.rs`),
+//! so that plans measured on other kernels (a rebuild from changed sources, or with another
+//! compiler or `target-cpu`, under the same version number) are measured again, not reused.
 
 use std::path::{Path, PathBuf};
 
@@ -35,6 +36,18 @@ fn main() {
         eat(relative.to_string_lossy().as_bytes());
         eat(&[0]);
         eat(&std::fs::read(file).unwrap_or_default());
+        eat(&[0]);
+    }
+    // What else makes other machine code from the same sources.
+    let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let version = std::process::Command::new(rustc)
+        .arg("-vV")
+        .output()
+        .map(|o| o.stdout)
+        .unwrap_or_default();
+    eat(&version);
+    for var in ["PROFILE", "OPT_LEVEL", "CARGO_ENCODED_RUSTFLAGS", "TARGET"] {
+        eat(std::env::var(var).unwrap_or_default().as_bytes());
         eat(&[0]);
     }
     println!("cargo:rustc-env=TRIGINT_KERNEL_BUILD={hash:016x}");
