@@ -32,6 +32,16 @@ def _gradient(q):
 NAN_FORCE = ti.PythonPotential(_value, _gradient, N)
 
 
+def _infinite_value(sign):
+    """A finite force everywhere, but U = ±inf once q0 < 0: the state stays finite and only the
+    energies say the run has left the potential's domain."""
+
+    def value(q):
+        return sign * np.inf if q[0] < 0 else float(q[0] + q[1] ** 2)
+
+    return ti.PythonPotential(value, lambda q: np.array([1.0, 2.0 * q[1], 0.0, 0.0]), N)
+
+
 def _problem(path, potential):
     if path == "diagonal":
         return ti.OscillatoryProblem([0.0, 10.0, 10.0, 10.0], potential)
@@ -45,7 +55,8 @@ def _run(prob, **kwargs):
     return sol, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
 
 
-@pytest.mark.parametrize("potential", [LOG, NAN_FORCE], ids=["log-of-negative", "nan-force"])
+@pytest.mark.parametrize("potential", [LOG, NAN_FORCE, _infinite_value(1.0), _infinite_value(-1.0)],
+                         ids=["log-of-negative", "nan-force", "infinite-U", "minus-infinite-U"])
 @pytest.mark.parametrize("path", ["diagonal", "dense", "krylov"])
 @pytest.mark.parametrize("save_every", [1, 10])
 def test_each_path_stops_with_blow_up_and_keeps_the_finite_samples(path, potential, save_every):
@@ -90,7 +101,8 @@ def test_a_non_finite_initial_potential_integrates_nothing(path):
 
 
 @pytest.mark.parametrize("path", ["diagonal", "dense"])
-@pytest.mark.parametrize("potential", [LOG, NAN_FORCE], ids=["log-of-negative", "nan-force"])
+@pytest.mark.parametrize("potential", [LOG, NAN_FORCE, _infinite_value(1.0), _infinite_value(-1.0)],
+                         ids=["log-of-negative", "nan-force", "infinite-U", "minus-infinite-U"])
 def test_ensemble_lanes_blow_up_like_integrate(path, potential):
     prob = _problem(path, potential)
     q0 = np.array([Q0, Q0, [1.0, 2.0, 2.0, 1.0]])
@@ -105,3 +117,23 @@ def test_ensemble_lanes_blow_up_like_integrate(path, potential):
         assert ds.steps_done.values[t] == sol.n_steps
         assert np.array_equal(ds.q.values[t, : sol.t.size], sol.q)
         assert np.all(np.isnan(ds.q.values[t, sol.t.size:]))
+
+
+@pytest.mark.parametrize("potential", [LOG, _infinite_value(1.0), _infinite_value(-1.0)],
+                         ids=["log-of-negative", "infinite-U", "minus-infinite-U"])
+def test_lanes_stop_at_the_first_non_finite_energy_between_samples(potential):
+    """Only the energies turn non-finite (the state stays finite): the lanes' tight loop between
+    samples must see it, and every lane stops where its own integrate() stops."""
+    prob = _problem("diagonal", potential)
+    q0 = np.array([Q0, Q0, Q0, [1.0, 2.0, 2.0, 1.0]])
+    p0 = np.array([P0, 0.5 * P0, 0.25 * P0, np.zeros(N)])
+    with pytest.warns(RuntimeWarning, match="3 of 4 trajectories blew up"):
+        ds = ti.ensemble(prob, "B", q0, p0, h=H, n_steps=100, save_every=100, threads=1, progress=False)
+    for t in range(4):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            sol = ti.integrate(prob, "B", q0[t], p0[t], h=H, n_steps=100, save_every=100)
+        assert ds.status.values[t] == sol.status
+        assert ds.steps_done.values[t] == sol.n_steps
+    assert ds.status.values.tolist() == ["blow-up"] * 3 + ["completed"]
+    assert 0 < ds.steps_done.values[0] < ds.steps_done.values[1] < ds.steps_done.values[2] < 100
