@@ -270,7 +270,7 @@ pub fn halve_into_extremes<L: Real>(sums: &mut [L], high: &mut [L], low: &mut [L
 /// made masked stores of it, `vmaskmovpd`, microcoded on AMD Zen 3: 15 → 24 ns a step.)
 /// `maxpd(e, hi)` is `if e > hi { e } else { hi }` per number, [`Real::keep_max`]: the same
 /// bits as [`Extremes::update`]. With `PLAIN` (H* is H_ω) H*'s channel is left out, as in
-/// [`Extremes::update_plain`]: four channels, two pairs.
+/// [`Extremes::update_channels`]: four channels, two pairs.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
 pub struct PackedExtremes<const PLAIN: bool> {
@@ -381,29 +381,27 @@ impl<L: Real> Extremes<L> {
     /// H_ω its channel repeats H_ω's value, so its extremes are H_ω's.
     #[inline(always)]
     pub fn update(&mut self, main: &[L; FIRST_BLOCK]) {
-        for c in 0..FIRST_BLOCK {
-            self.high[c] = self.high[c].keep_max(main[c]);
-            self.low[c] = self.low[c].keep_min(main[c]);
-        }
+        self.update_channels::<false>(main);
     }
 
-    /// [`update`](Self::update) where H* is H_ω (`plain_modified`): H*'s channel repeats H_ω's
-    /// value, so its extremes are left to [`repeat_oscillatory`](Self::repeat_oscillatory),
-    /// called once the loop is left. Two comparisons fewer a step, in a one-trajectory loop
-    /// whose additions and comparisons share two pipes (AMD Zen 4 and 5).
+    /// [`update`](Self::update), and with `PLAIN` (H* is H_ω, `plain_modified`) all but H*'s
+    /// channel, which repeats H_ω's value: its extremes are left to
+    /// [`repeat_oscillatory`](Self::repeat_oscillatory), called once the loop is left. Two
+    /// comparisons fewer a step, in a one-trajectory loop whose additions and comparisons share
+    /// two pipes (AMD Zen 4 and 5).
     #[inline(always)]
-    pub fn update_plain(&mut self, main: &[L; FIRST_BLOCK]) {
+    pub fn update_channels<const PLAIN: bool>(&mut self, main: &[L; FIRST_BLOCK]) {
         // (A test in a loop that unrolls, not a filtered range: that one was left a loop over
         // the extremes in memory.)
         for c in 0..FIRST_BLOCK {
-            if c != MODIFIED {
+            if !(PLAIN && c == MODIFIED) {
                 self.high[c] = self.high[c].keep_max(main[c]);
                 self.low[c] = self.low[c].keep_min(main[c]);
             }
         }
     }
 
-    /// H*'s extremes as H_ω's, after [`update_plain`](Self::update_plain): the numbers
+    /// H*'s extremes as H_ω's, after [`update_channels`](Self::update_channels): the numbers
     /// [`update`](Self::update) would have left, since each step's two values are the same.
     #[inline(always)]
     pub fn repeat_oscillatory(&mut self) {
@@ -563,7 +561,7 @@ mod tests {
         let mut packed = PackedExtremes::<true>::of(&start);
         for main in &steps {
             every.update(main);
-            plain.update_plain(main);
+            plain.update_channels::<true>(main);
             packed.update(main);
         }
         plain.repeat_oscillatory();

@@ -293,10 +293,8 @@ impl<
                     // The extremes' address escapes: they are stored here and reloaded when
                     // next needed, rather than kept in registers across the step.
                     std::hint::black_box(&mut packed);
-                } else if PLAIN {
-                    ext.update_plain(&main);
                 } else {
-                    ext.update(&main);
+                    ext.update_channels::<PLAIN>(&main);
                 }
                 if many && TWO_STEP {
                     // The blocks' extremes were taken by the sweep.
