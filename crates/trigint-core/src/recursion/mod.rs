@@ -358,7 +358,9 @@ fn observe_range<L: Real, T: Term<L>>(
 /// force at q_{n+1} (see [`evaluate`]), which must be in `f` already. Observing takes the energy
 /// sums of (q_n, p_n) in one pass with the step (the forms and summation order of
 /// [`sums_of_state`], so the same bits); for ℓ > 1 the per-block sums Σ(p² + ω²q²) go to
-/// `blocks`. With [`Observe::State`], p_n is stored and q is left at q_n; [`finish_state_step`]
+/// `blocks` (except where the blocks' extremes ride an [`Observe::Energies`] sweep: they are
+/// taken there and not kept). With [`Observe::State`], p_n is stored and q is left at q_n
+/// (only then is `p` written); [`finish_state_step`]
 /// then completes the step. `plain` is the weights' `plain_modified`, passed as a constant where
 /// the caller knows it so that no test is left in the loops.
 #[inline(always)]
