@@ -359,8 +359,8 @@ fn observe_range<L: Real, T: Term<L>>(
 /// sums of (q_n, p_n) in one pass with the step (the forms and summation order of
 /// [`sums_of_state`], so the same bits); for ℓ > 1 the per-block sums Σ(p² + ω²q²) go to
 /// `blocks` (except where the blocks' extremes ride an [`Observe::Energies`] sweep: they are
-/// taken there and not kept). With [`Observe::State`], p_n is stored and q is left at q_n
-/// (only then is `p` written); [`finish_state_step`]
+/// taken there, and `blocks` is scratch). With [`Observe::State`], p_n is stored and q is left
+/// at q_n (after [`Observe::Energies`], `p` holds no p_n: it may be scratch); [`finish_state_step`]
 /// then completes the step. `plain` is the weights' `plain_modified`, passed as a constant where
 /// the caller knows it so that no test is left in the loops.
 #[inline(always)]
