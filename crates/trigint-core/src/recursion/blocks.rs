@@ -1,9 +1,15 @@
 //! The observing sweep of many blocks: a wave equation's 10⁴–10⁶ Fourier modes, each its own
-//! block, observed in one pass over the state per step.
+//! block, observed in one pass over the state per step; and the two-step step that takes it
+//! ([`two_step_riding`]), kept apart from the step of one block so that no loop of one block
+//! carries this sweep's code.
 
-use super::{modified, oscillator, FastRows, Term};
-use crate::coefficients::Weights;
+use super::{
+    modified, observe_slow, oscillator, state_rows, step_rows, two_step_one_block, FastRows,
+    Observe, State, Term,
+};
+use crate::coefficients::{Coef, Weights};
 use crate::energy::{halve_into_extremes, PairForms, MAX_RIDING_AXES};
+use crate::energy::{sum, Sums};
 use crate::real::Real;
 use crate::shape::{Shape, Storage};
 use crate::sum::Sum8;
@@ -51,7 +57,7 @@ const PAIR_CHUNK: usize = 64;
 /// and the riders are known: outlined, the 2¹⁶-point wave step took 355 instead of 320 µs.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn many_blocks<L: Real, Sh: Shape>(
+fn many_blocks<L: Real, Sh: Shape>(
     sh: &Sh,
     (q, d, p, f): (&mut [L], &mut [L], &mut [L], &[L]),
     store: bool,
@@ -202,4 +208,39 @@ pub(super) fn many_blocks<L: Real, Sh: Shape>(
         modified_total.total(ends.len())
     };
     (total.total(ends.len()), m)
+}
+
+/// [`two_step`](super::two_step) with [`Riders`] (taken only by the sweep of many blocks: a
+/// shape of one block must pass none).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn two_step_riding<L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &Coef<L, Sh::S<L>>,
+    w: &Weights<L, Sh::S<L>>,
+    st: &mut State<L, Sh>,
+    obs: Observe,
+    plain: bool,
+    blocks: &mut [L],
+    riders: Riders<'_, L>,
+) -> Sums<L> {
+    debug_assert!(
+        (riders.extremes.is_none() && riders.pairs.is_none()) || !sh.single_block(),
+        "riders need the sweep of many blocks"
+    );
+    if obs == Observe::No || sh.single_block() {
+        return two_step_one_block(sh, k, w, st, obs, plain);
+    }
+    let (q, d, p, f) = state_rows(sh, st);
+    let store = obs == Observe::State;
+    let mut sums = Sums::zero();
+    sums.0[sum::KINETIC] = observe_slow(sh.ns(), k, (q, d, p, f), store);
+    let fast = FastRows {
+        sh,
+        rows: step_rows(sh, k, w),
+        plain,
+    };
+    (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
+        many_blocks(sh, (q, d, p, f), store, &fast, w, plain, blocks, riders);
+    sums
 }

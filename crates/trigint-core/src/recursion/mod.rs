@@ -27,8 +27,7 @@ use crate::sum::Sum8;
 mod blocks;
 mod state_sums;
 
-use blocks::many_blocks;
-pub use blocks::Riders;
+pub use blocks::{two_step_riding, Riders};
 pub use state_sums::sums_of_state;
 
 /// What a step computes besides advancing.
@@ -360,9 +359,9 @@ fn observe_range<L: Real, T: Term<L>>(
 /// [`sums_of_state`], so the same bits); for ℓ > 1 the per-block sums Σ(p² + ω²q²) go to
 /// `blocks` (except where the blocks' extremes ride an [`Observe::Energies`] sweep: they are
 /// taken there, and `blocks` is scratch). With [`Observe::State`], p_n is stored and q is left
-/// at q_n (after [`Observe::Energies`], `p` holds no p_n: it may be scratch); [`finish_state_step`]
-/// then completes the step. `plain` is the weights' `plain_modified`, passed as a constant where
-/// the caller knows it so that no test is left in the loops.
+/// at q_n (after [`Observe::Energies`], `p` holds no p_n: it may be scratch);
+/// [`finish_state_step`] then completes the step. `plain` is the weights' `plain_modified`,
+/// passed as a constant where the caller knows it so that no test is left in the loops.
 #[inline(always)]
 pub fn two_step<L: Real, Sh: Shape>(
     sh: &Sh,
@@ -376,41 +375,73 @@ pub fn two_step<L: Real, Sh: Shape>(
     two_step_riding(sh, k, w, st, obs, plain, blocks, Riders::none())
 }
 
-/// [`two_step`] with [`Riders`] (taken only by the sweep of many blocks: a shape of one block
-/// must pass none).
+/// The state's rows (q, d, p, f), over the shape's coordinates.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn two_step_riding<L: Real, Sh: Shape>(
+#[allow(clippy::type_complexity)]
+fn state_rows<'a, L: Real, Sh: Shape>(
+    sh: &Sh,
+    st: &'a mut State<L, Sh>,
+) -> (&'a mut [L], &'a mut [L], &'a mut [L], &'a [L]) {
+    let n = sh.n();
+    (
+        &mut st.q.get_mut()[..n],
+        &mut st.d.get_mut()[..n],
+        &mut st.p.get_mut()[..n],
+        &st.f.get()[..n],
+    )
+}
+
+/// The observing sweep of the slow coordinates 0..ns (Störmer–Verlet): their kinetic sum.
+#[inline(always)]
+fn observe_slow<L: Real, S>(
+    ns: usize,
+    k: &Coef<L, S>,
+    rows: (&mut [L], &mut [L], &mut [L], &[L]),
+    store: bool,
+) -> L {
+    let slow = SlowTerms {
+        h2: k.h2,
+        inv_2h: k.inv_2h,
+    };
+    observe_range(0, ns, rows, store, &slow).0
+}
+
+/// The rows of numbers an observing step reads: 2(1 − c), h²ψ, 1/(2hχ), ω² and H*'s weights.
+#[inline(always)]
+fn step_rows<'a, L: Real, Sh: Shape>(
+    sh: &Sh,
+    k: &'a Coef<L, Sh::S<L>>,
+    w: &'a Weights<L, Sh::S<L>>,
+) -> [&'a [L]; 6] {
+    let n = sh.n();
+    [
+        &k.two_omc.get()[..n],
+        &k.h2_psi.get()[..n],
+        &k.inv_2h_chi.get()[..n],
+        &w.omega2.get()[..n],
+        &w.modified_p.get()[..n],
+        &w.modified_q.get()[..n],
+    ]
+}
+
+/// [`two_step`] of a shape of one block, or of any shape unobserved: everything but the sweep
+/// of many blocks, whose code is not in it. The lane loops and every unobserved step call this:
+/// with that sweep's code inlined beside theirs (dead for their shapes, but there through part
+/// of the compiler's passes), an edit of that sweep once left the FPU lane loop unvectorized
+/// (1000 lanes: 1.25 → 10 ns per trajectory-step, AMD Zen 5).
+#[inline(always)]
+pub fn two_step_one_block<L: Real, Sh: Shape>(
     sh: &Sh,
     k: &Coef<L, Sh::S<L>>,
     w: &Weights<L, Sh::S<L>>,
     st: &mut State<L, Sh>,
     obs: Observe,
     plain: bool,
-    blocks: &mut [L],
-    riders: Riders<'_, L>,
 ) -> Sums<L> {
-    debug_assert!(
-        (riders.extremes.is_none() && riders.pairs.is_none()) || !sh.single_block(),
-        "riders need the sweep of many blocks"
-    );
+    debug_assert!(obs == Observe::No || sh.single_block());
     let (ns, n) = (sh.ns(), sh.n());
-    let q = &mut st.q.get_mut()[..n];
-    let (d, p, f) = (
-        &mut st.d.get_mut()[..n],
-        &mut st.p.get_mut()[..n],
-        &st.f.get()[..n],
-    );
-    let (a, hp, inv) = (
-        &k.two_omc.get()[..n],
-        &k.h2_psi.get()[..n],
-        &k.inv_2h_chi.get()[..n],
-    );
-    let (w2, mp, mq) = (
-        &w.omega2.get()[..n],
-        &w.modified_p.get()[..n],
-        &w.modified_q.get()[..n],
-    );
+    let (q, d, p, f) = state_rows(sh, st);
+    let [a, hp, ..] = step_rows(sh, k, w);
     if obs == Observe::No {
         // Slow coordinates: Störmer–Verlet, d_{n+1} = d_n + h² g_n.
         for i in 0..ns {
@@ -438,12 +469,8 @@ pub fn two_step_riding<L: Real, Sh: Shape>(
     }
     let store = obs == Observe::State;
     let mut sums = Sums::zero();
-    let slow = SlowTerms {
-        h2: k.h2,
-        inv_2h: k.inv_2h,
-    };
-    (sums.0[sum::KINETIC], _) = observe_range(0, ns, (q, d, p, f), store, &slow);
-    let rows = [a, hp, inv, w2, mp, mq];
+    sums.0[sum::KINETIC] = observe_slow(ns, k, (q, d, p, f), store);
+    let rows = step_rows(sh, k, w);
     if let (Some(c), false) = (sh.uniform(), Sh::FIXED) {
         // One block (the uniform shapes have one).
         let fast = FastUniform {
@@ -455,13 +482,8 @@ pub fn two_step_riding<L: Real, Sh: Shape>(
         return sums;
     }
     let fast = FastRows { sh, rows, plain };
-    if sh.single_block() {
-        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
-            observe_range(ns, n, (q, d, p, f), store, &fast);
-    } else {
-        (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
-            many_blocks(sh, (q, d, p, f), store, &fast, w, plain, blocks, riders);
-    }
+    (sums.0[sum::OSCILLATOR], sums.0[sum::MODIFIED]) =
+        observe_range(ns, n, (q, d, p, f), store, &fast);
     sums
 }
 

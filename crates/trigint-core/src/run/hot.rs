@@ -251,7 +251,7 @@ impl<
             {
                 let (q_n, d_n) = (st.q.clone(), st.d.clone());
                 recursion::evaluate(sh, pot, ws, k, st, true, phi, INLINE)?;
-                recursion::two_step(sh, k, w, st, Observe::No, PLAIN, block_sums);
+                recursion::two_step_one_block(sh, k, w, st, Observe::No, PLAIN);
                 recursion::momenta_after_step(sh, k, st.d.get(), d_n.get(), st.p.get_mut());
                 recursion::sums_of_state(sh, w, q_n.get(), st.p.get(), PLAIN, block_sums)
             } else if TWO_STEP {

@@ -302,7 +302,7 @@ fn step_lane_group<
         }
         evaluate::<Sh, P, PHI>(sh, pot, &kb, &mut s, TRACK);
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
-        let sums = recursion::two_step(sh, &kb, &wb, &mut s, obs, PLAIN, &mut []);
+        let sums = recursion::two_step_one_block(sh, &kb, &wb, &mut s, obs, PLAIN);
         for i in 0..n_coords {
             set(q, i * width + b, s.q.get()[i]);
             set(d, i * width + b, s.d.get()[i]);

@@ -327,7 +327,7 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             self.prev_q.copy_from_slice(&st.q.get()[..n]);
             self.prev_d.copy_from_slice(&st.d.get()[..n]);
         }
-        recursion::two_step(self.sh, &self.k, &self.w, st, Observe::No, true, &mut []);
+        recursion::two_step_one_block(self.sh, &self.k, &self.w, st, Observe::No, true);
         self.step(keep);
         Ok(())
     }

@@ -225,7 +225,7 @@ fn trajectory_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
             set(xs, i * width + b, x[i]);
         }
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
-        recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
+        recursion::two_step_one_block(sh, &kb, &wb, &mut s, Observe::No, true);
         for i in 0..n {
             set(q, i * width + b, s.q.get()[i]);
             set(d, i * width + b, s.d.get()[i]);
@@ -259,7 +259,7 @@ fn deviation_lanes<L: Real, Sh: Shape, P: Potential, const PHI: bool>(
         scaled_deviation(sh, &kb, PHI, s.q.get(), v.get_mut());
         pot.inline_force_derivative(s.x.get(), v.get(), s.f.get_mut());
         let wb: Weights<f64, Sh::S<f64>> = w.lane(b);
-        recursion::two_step(sh, &kb, &wb, &mut s, Observe::No, true, &mut []);
+        recursion::two_step_one_block(sh, &kb, &wb, &mut s, Observe::No, true);
         for i in 0..n {
             set(dq, i * width + b, s.q.get()[i]);
             set(dd, i * width + b, s.d.get()[i]);
