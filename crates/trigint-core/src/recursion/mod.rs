@@ -441,7 +441,8 @@ pub fn two_step_one_block<L: Real, Sh: Shape>(
     debug_assert!(obs == Observe::No || sh.single_block());
     let (ns, n) = (sh.ns(), sh.n());
     let (q, d, p, f) = state_rows(sh, st);
-    let [a, hp, ..] = step_rows(sh, k, w);
+    let rows = step_rows(sh, k, w);
+    let [a, hp, ..] = rows;
     if obs == Observe::No {
         // Slow coordinates: Störmer–Verlet, d_{n+1} = d_n + h² g_n.
         for i in 0..ns {
@@ -470,7 +471,6 @@ pub fn two_step_one_block<L: Real, Sh: Shape>(
     let store = obs == Observe::State;
     let mut sums = Sums::zero();
     sums.0[sum::KINETIC] = observe_slow(ns, k, (q, d, p, f), store);
-    let rows = step_rows(sh, k, w);
     if let (Some(c), false) = (sh.uniform(), Sh::FIXED) {
         // One block (the uniform shapes have one).
         let fast = FastUniform {
