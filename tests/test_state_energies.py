@@ -89,3 +89,25 @@ def test_energies_of_a_runs_samples_are_the_streamed_ones_bit_for_bit(method):
         e = ti.energies(prob, sol.q, sol.p, method, 0.003)
         for name in sol.energies.data_vars:
             np.testing.assert_array_equal(e[name].values, sol.energies[name].values, err_msg=name)
+
+
+@pytest.mark.parametrize("omega", [[30.0, 50.0, 50.0, 50.0], [50.0, 50.0, 50.0, 30.0], [0.0, 30.0, 40.0, 50.0, 50.0]],
+                         ids=["1+3", "3+1", "slow+1+1+2"])
+@pytest.mark.parametrize("method", ["B", "D"])
+def test_blocks_of_unequal_sizes_stream_their_own_energies(omega, method):
+    # Blocks of 1 and 3 coordinates are as many coordinates as two blocks of two: the sweep's
+    # flat loop over blocks of two once took them for such (the first block's energy then held
+    # the second block's first coordinate after step 0).
+    n = len(omega)
+    names = [f"q{i}" for i in range(n)]
+    terms = " + ".join(f"({a} - {b})**4/4" for a, b in zip(names, names[1:], strict=False))
+    prob = ti.OscillatoryProblem(omega, ti.ExpressionPotential(terms + f" + {names[0]}*{names[-1]}", names))
+    rng = np.random.default_rng(5)
+    q0, p0 = 0.1 * rng.normal(size=n), rng.normal(size=n)
+    sol = ti.integrate(prob, method, q0, p0, h=0.004, n_steps=60, save_every=1)
+    want = numpy_energies(prob, np.asarray(sol.q), np.asarray(sol.p))
+    for j in range(1, prob.n_blocks + 1):
+        name = f"oscillatory_{j}"
+        np.testing.assert_allclose(sol.energies[name].values, want[name], rtol=1e-13, err_msg=name)
+        deviation = np.abs(want[name] - want[name][0]).max()
+        assert sol.max_deviation[name] == pytest.approx(deviation, rel=1e-9, abs=1e-15), name

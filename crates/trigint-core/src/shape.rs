@@ -95,6 +95,10 @@ pub trait Shape: Clone + Send + Sync {
     fn single_block(&self) -> bool {
         self.block_ends().len() <= 1
     }
+    /// The most coordinates of one oscillatory block (0 without any).
+    fn longest_block(&self) -> usize {
+        longest_block(self.ns(), self.block_ends())
+    }
     /// Where oscillatory coordinate i reads its per-coordinate numbers: i itself, or for a
     /// [`Fixed`] or [`Uniform`] shape, whose one block has the same numbers throughout, its
     /// first coordinate (fewer distinct numbers to keep in registers and to read). Always
@@ -159,12 +163,26 @@ impl<const N: usize, const NS: usize> Shape for Fixed<N, NS> {
     }
 }
 
+/// The most coordinates of one block, from where the blocks end (block j is
+/// `ends[j-1]..ends[j]`, `ends[-1] = ns`).
+fn longest_block(ns: usize, ends: &[usize]) -> usize {
+    let mut start = ns;
+    let mut longest = 0;
+    for &end in ends {
+        longest = longest.max(end - start);
+        start = end;
+    }
+    longest
+}
+
 /// Any arrangement, sizes known at run time.
 #[derive(Clone, Debug)]
 pub struct Dynamic {
     n: usize,
     ns: usize,
     ends: Vec<usize>,
+    /// [`Shape::longest_block`], counted once (a wave equation has 10⁴–10⁶ blocks).
+    longest: usize,
 }
 
 impl Shape for Dynamic {
@@ -181,6 +199,10 @@ impl Shape for Dynamic {
     #[inline(always)]
     fn block_ends(&self) -> &[usize] {
         &self.ends
+    }
+    #[inline(always)]
+    fn longest_block(&self) -> usize {
+        self.longest
     }
 }
 
@@ -311,6 +333,7 @@ impl Layout {
             n: self.dim(),
             ns: self.n_slow,
             ends: self.block_ends.clone(),
+            longest: longest_block(self.n_slow, &self.block_ends),
         }
     }
 }

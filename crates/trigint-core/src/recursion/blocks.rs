@@ -81,6 +81,9 @@ fn many_blocks<L: Real, Sh: Shape>(
     let mut next_pair = 0;
     let mut pair_terms = riders.pairs.as_ref().map(|_| [L::zero(); PAIR_CHUNK]);
     let keep_blocks = store || riders.extremes.is_none();
+    // No block longer than two: a pass of twice as many coordinates as blocks is then all
+    // blocks of two (blocks of 1 and 3 coordinates would pass the count alone).
+    let at_most_pairs = sh.longest_block() <= 2;
     // The pair forms need q_n: a sweep that computes them is asked to advance q itself.
     debug_assert!(!(store && riders.pairs.is_some()));
     // Shapes of many blocks read their numbers at each coordinate (see `Shape::coef`).
@@ -111,7 +114,7 @@ fn many_blocks<L: Real, Sh: Shape>(
             &mut blocks[..j_end - j]
         };
         let (qs, w2s) = (&q[start..end], &w2[start..end]);
-        if plain && end - start == 2 * (j_end - j) {
+        if plain && at_most_pairs && end - start == 2 * (j_end - j) {
             // Blocks of two coordinates each (the modes of a wave equation): a flat loop.
             for (e, ((qq, pp), ww)) in energies.iter_mut().zip(
                 qs.chunks_exact(2)
