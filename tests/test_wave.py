@@ -183,6 +183,48 @@ def test_the_streamed_momentum_is_the_momentum_of_the_samples_and_changes_nothin
         assert "momentum_1" not in other.max_deviation
 
 
+@pytest.mark.parametrize("shape", [(2,), (2, 2), (2, 2, 2), (2, 4)])
+def test_grids_of_two_points_along_an_axis_run_with_no_momentum_along_it(shape):
+    # Two points along an axis give its modes no sine part: no mode moves along it, the
+    # momentum's component is the empty sum, 0 (these grids were once refused by the core:
+    # "0 first and 0 second indices"), and the others are those of the samples.
+    prob = ti.problems.wave(shape if len(shape) > 1 else shape[0], rho=1.0, potential="u**4/4")
+    u0, v0 = smooth_data(shape, seed=2)
+    sol = ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=20, save_every=5)
+    got = np.atleast_2d(sol.energies["momentum"].values.T).T
+    want = prob.momentum(sol.q, sol.p)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-16)
+    at_rest = ti.energies(prob, u0, v0)
+    for axis, n in enumerate(shape):
+        if n == 2:
+            assert np.all(got[:, axis] == 0.0) and sol.max_deviation[f"momentum_{axis + 1}"] == 0.0
+            assert float(at_rest[f"momentum_{axis + 1}"]) == 0.0
+    if shape == (2, 4):
+        assert np.abs(got[:, 1]).max() > 1e-4  # a mode moves along the second axis
+    lanes = ti.ensemble(prob, "B", u0, v0, h=[0.05, 0.04], n_steps=20)
+    assert np.array_equal(lanes.max_deviation.values[0], [sol.max_deviation[k] for k in lanes.energy.values])
+
+
+def test_energies_and_tangent_maps_take_grid_values_as_integrate_does():
+    shape = (8, 6)
+    prob = ti.problems.wave(shape, rho=1.0, potential="u**4/4")
+    u0, v0 = smooth_data(shape, seed=4)
+    grid = ti.energies(prob, u0, v0)
+    flat = ti.energies(prob, u0.ravel(), v0.ravel())
+    assert all(np.array_equal(grid[k].values, flat[k].values) for k in flat.data_vars)
+    stacked = ti.energies(prob, np.stack([u0, v0]), np.stack([v0, u0]))
+    assert np.array_equal(stacked["total"].values[0], flat["total"].values)
+    du, dv = smooth_data(shape, seed=5)
+    dq, dp = ti.tangent_map(prob, "B", u0, v0, du, dv, h=0.05, n_steps=3)
+    fq, fp = ti.tangent_map(prob, "B", u0, v0, du.ravel(), dv.ravel(), h=0.05, n_steps=3)
+    assert dq.shape == dp.shape == shape
+    assert np.array_equal(dq.ravel(), fq) and np.array_equal(dp.ravel(), fp)
+    many_q, many_p = ti.tangent_map(prob, "B", u0, v0, np.stack([du, dv]), np.stack([dv, du]), h=0.05, n_steps=3)
+    assert many_q.shape == (2, *shape) and np.array_equal(many_q[0], dq)
+    with pytest.raises(ValueError, match=r"dq: expected grid values of shape \(8, 6\)"):
+        ti.tangent_map(prob, "B", u0, v0, du[:4], dv[:4], h=0.05)
+
+
 def test_momentum_is_minus_the_mean_of_v_times_grad_u():
     shape = (12, 8)
     prob = ti.problems.wave(shape, rho=1.0)

@@ -48,7 +48,8 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     ----------
     problem : OscillatoryProblem
     q, p : array of float, shape (n,) or (m, n)
-        One state, or m states as rows.
+        One state, or m states as rows; for a wave problem also grid values, of the grid's
+        shape or (m, *grid).
     method : Method or str, optional
         With `h`: the method whose modified oscillatory energy (3.4) is added.
     h : float, optional
@@ -77,8 +78,9 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     from . import _check
 
-    q = _check.real_array(q, "q", ndim=None, finite=False)
-    p = _check.real_array(p, "p", ndim=None, finite=False)
+    # a wave problem's grid values, (*grid) or (m, *grid), as flat states
+    q = _check.real_array(problem.as_state(q, "q"), "q", ndim=None, finite=False)
+    p = _check.real_array(problem.as_state(p, "p"), "p", ndim=None, finite=False)
     if q.shape != p.shape or q.ndim not in (1, 2) or q.shape[-1] != problem.dim:
         raise ValueError(
             f"q, p: expected equal shapes (n,) or (m, n) with n = {problem.dim}, got {q.shape} and {p.shape}"

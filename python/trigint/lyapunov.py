@@ -250,7 +250,8 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
     problem, method, q0, p0, h
         As for :func:`~trigint.integrate`.
     dq, dp : array of shape (n,) or (K, n)
-        The deviations (K of them as rows), in the user's coordinates.
+        The deviations (K of them as rows), in the user's coordinates; for a wave problem
+        also grid values, of the grid's shape or (K, *grid).
     n_steps : int
         How many steps N the map spans (default 1).
     finite_differences : bool
@@ -280,16 +281,17 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
     q0 = checked_state(problem.as_state(q0, "q0"), "q0", n)
     p0 = checked_state(problem.as_state(p0, "p0"), "p0", n)
     dq_in, dp_in = (np.asarray(x, dtype=float) for x in (dq, dp))
-    single = dq_in.ndim == 1
-    dq2, dp2 = np.atleast_2d(dq_in), np.atleast_2d(dp_in)
-    if dq2.shape != dp2.shape or dq2.ndim != 2 or dq2.shape[1] != n:
+    # a wave problem's grid-shaped deviations, (*grid) or (K, *grid), as flat rows
+    dq_flat, dp_flat = problem.as_state(dq_in, "dq"), problem.as_state(dp_in, "dp")
+    dq2, dp2 = np.atleast_2d(dq_flat), np.atleast_2d(dp_flat)
+    if dq_in.shape != dp_in.shape or dq2.ndim != 2 or dq2.shape[1] != n:
         raise ValueError(f"dq, dp: expected arrays of shape ({n},) or (K, {n}), got {dq_in.shape} and {dp_in.shape}")
     _finite(dq2, "dq")
     _finite(dp2, "dp")
     run = _TangentRun(problem, method, h, finite_differences)
     out = run.call(q0, p0, dq2, dp2, n_steps, 0, n_steps, None)
     dq_out, dp_out = np.asarray(out["dq"]), np.asarray(out["dp"])
-    return (dq_out[0], dp_out[0]) if single else (dq_out, dp_out)
+    return dq_out.reshape(dq_in.shape), dp_out.reshape(dp_in.shape)
 
 
 def _finite(a: np.ndarray, name: str) -> None:

@@ -174,13 +174,14 @@ class WaveProblem(OscillatoryProblem):
     def _momentum_form(self) -> dict:
         """K_m = −mean_x(v ∂_m u) = Σ_pairs j_m (q_a p_b − q_b p_a), a and b the cosine and sine
         coordinates of a mode (the Nyquist component's derivative taken as 0), streamed by the
-        core as the channels momentum_1 … momentum_d."""
+        core as the channels momentum_1 … momentum_d (0 on a grid of 2 points per axis, which
+        has no complex mode)."""
         cos = np.flatnonzero(self._parts == 1)
         j = self._wavevectors[cos].astype(float)
         for axis, n in enumerate(self.shape):
             j[np.abs(j[:, axis]) == n // 2, axis] = 0.0
         return {"a": [int(i) for i in cos], "b": [int(i) + 1 for i in cos],
-                "weights": np.ascontiguousarray(j.T.reshape(-1))}
+                "weights": np.ascontiguousarray(j.T.reshape(-1)), "axes": len(self.shape)}
 
     def _action_modes(self, modes) -> np.ndarray:
         n_modes = self.modes.shape[0]
@@ -263,7 +264,7 @@ class WaveProblem(OscillatoryProblem):
         """
         q, p = self.fourier(u), self.fourier(v)
         f = self.pair_forms
-        a, b = np.asarray(f["a"]), np.asarray(f["b"])
+        a, b = np.asarray(f["a"], dtype=np.intp), np.asarray(f["b"], dtype=np.intp)
         w = f["weights"].reshape(len(self.shape), -1)
         return (q[..., a] * p[..., b] - q[..., b] * p[..., a]) @ w.T
 

@@ -44,13 +44,16 @@ pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
 /// A bilinear invariant per axis, K_m = Σ_k w_mk (q_a p_b − q_b p_a) over index pairs (a_k, b_k)
 /// of the kernels' coordinates: the momentum of a wave equation in real Fourier coordinates
 /// (a, b the cosine and sine coordinates of a mode, w_mk its wavenumber along axis m). Its
-/// channels are the table's per-axis entries ([`crate::channels`]).
+/// channels are the table's per-axis entries ([`crate::channels`]). A grid without complex
+/// modes (2 points per axis) has no pairs: its K_m are the empty sum, 0.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairForms {
     pub a: Vec<usize>,
     pub b: Vec<usize>,
     /// Axis-major: weights[m * pairs + k].
     pub weights: Vec<f64>,
+    /// The number of axes m (channels).
+    axes: usize,
     /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), … (see [`PairForms::evaluate`]).
     consecutive: Option<usize>,
 }
@@ -72,17 +75,28 @@ fn consecutive(a: &[usize], b: &[usize]) -> Option<usize> {
 }
 
 impl PairForms {
-    /// Checks the pairs against n coordinates and the weights against the number of pairs.
-    pub fn new(a: Vec<usize>, b: Vec<usize>, weights: Vec<f64>, n: usize) -> CoreResult<Self> {
+    /// Checks the pairs against n coordinates and the weights against the pairs and `axes`.
+    pub fn new(
+        a: Vec<usize>,
+        b: Vec<usize>,
+        weights: Vec<f64>,
+        axes: usize,
+        n: usize,
+    ) -> CoreResult<Self> {
         let bad = |reason: String| Err(CoreError::invalid("pair forms", reason));
-        if a.len() != b.len() || a.is_empty() {
+        if a.len() != b.len() {
             return bad(format!("{} first and {} second indices", a.len(), b.len()));
         }
         if let Some(i) = a.iter().chain(&b).find(|&&i| i >= n) {
             return bad(format!("index {i} is not below the {n} coordinates"));
         }
-        if weights.is_empty() || !weights.len().is_multiple_of(a.len()) {
-            return bad(format!("{} weights for {} pairs", weights.len(), a.len()));
+        if axes == 0 || weights.len() != axes * a.len() {
+            return bad(format!(
+                "{} weights for {} pairs and {axes} axes (one weight per pair and axis, at \
+                 least one axis)",
+                weights.len(),
+                a.len()
+            ));
         }
         if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
             return bad(format!("weight {w} is not finite"));
@@ -92,13 +106,14 @@ impl PairForms {
             a,
             b,
             weights,
+            axes,
             consecutive,
         })
     }
 
     /// Number of axes (channels).
     pub fn axes(&self) -> usize {
-        self.weights.len() / self.a.len()
+        self.axes
     }
 
     /// (a₀, pairs, axes) when the observing sweep of these blocks can compute the forms in its

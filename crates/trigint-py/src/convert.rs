@@ -30,18 +30,20 @@ pub fn vec1(a: PyReadonlyArray1<f64>) -> Vec<f64> {
 /// The problem's arrangement: `{"omega2", "n_slow", "block_ends"}`.
 pub fn layout(d: &Bound<'_, PyDict>) -> PyResult<Layout> {
     let omega2 = vec1(item(d, "omega2")?);
-    // {"a", "b", "weights"}: the pair form of a wave equation's momentum (optional)
+    // {"a", "b", "weights", "axes"}: the pair form of a wave equation's momentum (optional;
+    // without "axes", the weights per pair)
     let pair_forms = match d.get_item("pair_forms")? {
         Some(f) if !f.is_none() => {
             let f = f.cast::<PyDict>()?;
+            let (a, b): (Vec<usize>, Vec<usize>) = (item(f, "a")?, item(f, "b")?);
+            let weights = vec1(item(f, "weights")?);
+            let axes = match f.get_item("axes")? {
+                Some(x) => x.extract::<usize>()?,
+                None => weights.len().checked_div(a.len()).unwrap_or(0),
+            };
             Some(
-                PairForms::new(
-                    item(f, "a")?,
-                    item(f, "b")?,
-                    vec1(item(f, "weights")?),
-                    omega2.len(),
-                )
-                .map_err(|e| PyValueError::new_err(e.to_string()))?,
+                PairForms::new(a, b, weights, axes, omega2.len())
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?,
             )
         }
         _ => None,

@@ -65,7 +65,7 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
             .map(|&a| if a == 0 { n - 1 } else { a + 1 })
             .collect();
         let mut lay = layout(&omega);
-        lay.pair_forms = Some(PairForms::new(a, b, w, n).unwrap());
+        lay.pair_forms = Some(PairForms::new(a, b, w, 1, n).unwrap());
         lay
     };
     // Consecutive pairs (a, a + 1) ride along the sweep; one more pair (0, 15) of weight 0
