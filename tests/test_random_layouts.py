@@ -1,5 +1,5 @@
 """Problems of random arrangements (slow coordinates, blocks of 1 to 4 coordinates in any order,
-up to 700 coordinates so that the observing sweep cuts several passes): what a run streams is
+one of 472 coordinates, so that the observing sweep cuts several passes): what a run streams is
 what NumPy computes from its samples, where the samples are taken changes no bit, and an
 ensemble's lane is the run alone. (A pass of blocks of 1 and 3 coordinates was once taken for
 two blocks of two.)"""
