@@ -198,12 +198,21 @@ def test_python_potential_without_hessian_needs_permission():
     ({"deviation": (np.zeros(6), np.zeros(6))}, "zero"),
     ({"deviation": (np.full(6, np.nan), np.zeros(6))}, "finite"),
     ({"sample_every": 5, "renormalize_every": 2}, "multiple"),
+    ({"renormalize_every": 2**70}, r"renormalize_every: 1.18e\+21 steps is more than 2\*\*53"),  # not OverflowError
+    ({"sample_every": 2**70}, r"sample_every: 1.18e\+21 steps is more than 2\*\*53"),
 ])
 def test_bad_input(kwargs, message):
     problem = ti.problems.fpu(m=3, omega=30.0)
     q0, p0 = ti.problems.fpu_initial(m=3, omega=30.0)
     with pytest.raises(ValueError, match=message):
         ti.lyapunov(problem, "B", q0, p0, h=0.02, n_steps=10, **kwargs)
+
+
+def test_tangent_map_refuses_more_steps_than_it_can_count():
+    problem = ti.problems.fpu(m=3, omega=30.0)
+    q0, p0 = ti.problems.fpu_initial(m=3, omega=30.0)
+    with pytest.raises(ValueError, match=r"n_steps: 1.18e\+21 steps is more than 2\*\*53"):  # not OverflowError
+        ti.tangent_map(problem, "B", q0, p0, q0, p0, h=0.02, n_steps=2**70)
 
 
 @pytest.mark.parametrize("case", ["fpu", "krylov"])

@@ -31,6 +31,7 @@ from ._method_names import resolve_method
 from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
+from .saveat import check_steps
 
 #: renormalize every this many steps unless told (see :mod:`trigint._deviation`)
 DEFAULT_RENORMALIZE_EVERY = RENORMALIZE_EVERY
@@ -200,10 +201,10 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
         raise ValueError(f"n_exponents: must be an integer from 1 to 2n = {2 * n} (the state has 2n numbers), "
                          f"got {n_exponents!r}")
     k = int(n_exponents)
-    renormalize_every = positive_int(renormalize_every, "renormalize_every")
+    renormalize_every = check_steps(positive_int(renormalize_every, "renormalize_every"), "renormalize_every")
     if sample_every is None:
         sample_every = renormalize_every * max(1, n_steps // (renormalize_every * DEFAULT_SAMPLES))
-    sample_every = positive_int(sample_every, "sample_every")
+    sample_every = check_steps(positive_int(sample_every, "sample_every"), "sample_every")
     if sample_every % renormalize_every:
         raise ValueError(f"sample_every: must be a multiple of renormalize_every = {renormalize_every}, "
                          f"got {sample_every}")
@@ -276,7 +277,7 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
         raise TypeError(f"problem: expected an OscillatoryProblem, got {type(problem).__name__}")
     method = resolve_method(method)
     h = _check.step_size(h)
-    n_steps = positive_int(n_steps, "n_steps")
+    n_steps = check_steps(positive_int(n_steps, "n_steps"), "n_steps")
     n = problem.dim
     q0 = checked_state(problem.as_state(q0, "q0"), "q0", n)
     p0 = checked_state(problem.as_state(p0, "p0"), "p0", n)
