@@ -315,6 +315,11 @@ def test_ensemble_lanes_equal_integrate_bit_for_bit():
     ({"n": 8, "potential": "__import__('os')"}, "potential"),
     ({"n": 8, "potential": lambda u: u}, "derivative"),
     ({"n": 8, "modes": [100]}, "not a wavevector"),
+    ({"n": 8, "modes": [1, 2.5]}, r"modes: expected wavevectors of integers, such as \[1, 2, 5\], got \[1, 2.5\]"),
+    ({"n": 8, "modes": 2**70}, "wavevectors of integers"),  # once an OverflowError
+    ({"n": 8, "modes": float("inf")}, "wavevectors of integers"),
+    ({"n": 8, "modes": [[1, 0]]}, r"ints on a 1-D grid.*shape \(1, 2\)"),
+    ({"n": (8, 6), "modes": [(1, 2, 3)]}, r"2-tuples on a 2-D grid"),
 ])
 def test_bad_wave_problems_are_refused(kwargs, match):
     n = kwargs.pop("n")

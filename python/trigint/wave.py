@@ -189,7 +189,7 @@ class WaveProblem(OscillatoryProblem):
             if n_modes <= ALL_MODES_UP_TO:
                 return np.arange(n_modes)
             return np.flatnonzero(np.max(np.abs(self.modes), axis=1) <= 8)
-        wanted = np.asarray(modes, dtype=np.int64).reshape(-1, len(self.shape))
+        wanted = _wavevectors(modes, len(self.shape))
         found = []
         for w in wanted:
             hit = np.flatnonzero(np.all(self.modes == w, axis=1) | np.all(self.modes == -w, axis=1))
@@ -422,6 +422,24 @@ def wave(n, rho: float = 1.0, potential="0", *, params: Mapping | None = None, v
     shape = _shape(n)
     rho = _check.real(rho, "rho", nonneg=True)
     return WaveProblem(shape, rho, potential, params, variable, modes)
+
+
+def _wavevectors(modes, d: int) -> np.ndarray:
+    """`modes` as rows of d integers: ints in 1-D (a sequence, or one int), d-tuples otherwise."""
+    example = "[1, 2, 5]" if d == 1 else f"[{tuple(range(1, d + 1))}, ...]"
+    expected = f"modes: expected wavevectors of integers, such as {example}, got {_check.shown(modes)}"
+    try:
+        a = np.asarray(modes, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(expected) from None
+    if a.size == 0:  # no mode's action kept
+        return np.zeros((0, d), dtype=np.int64)
+    if not np.all(np.isfinite(a)) or np.any(a != np.round(a)) or np.any(np.abs(a) > 2**31):
+        raise ValueError(expected)
+    if (d == 1 and a.ndim > 1) or (d > 1 and (a.ndim > 2 or a.shape[-1] != d)):
+        raise ValueError(f"modes: expected {'ints' if d == 1 else f'{d}-tuples'} on a {d}-D grid, "
+                         f"such as {example}, got shape {a.shape}")
+    return a.astype(np.int64).reshape(-1, d)
 
 
 def _shape(n) -> tuple[int, ...]:
