@@ -29,6 +29,7 @@ pub mod prepared;
 pub mod real;
 pub mod recursion;
 pub mod recycle;
+pub mod resident;
 pub mod run;
 pub mod shape;
 pub mod spectral;

@@ -301,6 +301,8 @@ fn kernel_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The library's constants in the page tables before any kernel runs (see `resident`).
+    trigint_core::resident::map_read_only_data();
     m.add_function(wrap_pyfunction!(integrate, m)?)?;
     m.add_function(wrap_pyfunction!(integrate_batch, m)?)?;
     m.add_function(wrap_pyfunction!(tangent::tangent, m)?)?;
