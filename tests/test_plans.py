@@ -131,3 +131,31 @@ def test_info_names_the_cpu_the_copies_and_the_cache():
     text = subprocess.run([sys.executable, "-m", "trigint", "info"], capture_output=True, text=True,
                           check=True, timeout=60).stdout
     assert "CPU:" in text and "kernel copies:" in text and "plan cache:" in text
+
+
+def test_the_extensions_read_only_data_is_in_the_page_tables_once_it_is_loaded():
+    # A masked load of a constant under a zero mask (the lane loops' finiteness check) takes a
+    # slow path on a page without a translation; the extension reads its read-only pages at load
+    # (trigint_core::resident). Checked in a fresh process: the pages of those mappings that are
+    # resident (smaps' Rss) are all of them. Linux only.
+    if not sys.platform.startswith("linux"):
+        return
+    code = r"""
+import os, re, trigint._core as core
+path = os.path.realpath(core.__file__)
+size = rss = 0
+current = None
+for line in open("/proc/self/smaps"):
+    head = re.match(r"^[0-9a-f]+-[0-9a-f]+ (\S+) \S+ \S+ \S+\s*(.*)$", line)
+    if head:
+        current = head.group(2) == path and head.group(1).startswith("r--")
+    elif current and line.startswith("Size:"):
+        size += int(line.split()[1])
+    elif current and line.startswith("Rss:"):
+        rss += int(line.split()[1])
+print(size, rss)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    size, rss = int(out[0]), int(out[1])
+    assert size > 1000  # kB: the library's constants
+    assert rss == size
