@@ -49,7 +49,7 @@ def energies(problem: OscillatoryProblem, q, p, method: Method | str | None = No
     problem : OscillatoryProblem
     q, p : array of float, shape (n,) or (m, n)
         One state, or m states as rows; for a wave problem also grid values, of the grid's
-        shape or (m, *grid).
+        shape or ``(m, *grid)``.
     method : Method or str, optional
         With `h`: the method whose modified oscillatory energy (3.4) is added.
     h : float, optional

@@ -252,7 +252,7 @@ def tangent_map(problem: OscillatoryProblem, method, q0, p0, dq, dp, *, h: float
         As for :func:`~trigint.integrate`.
     dq, dp : array of shape (n,) or (K, n)
         The deviations (K of them as rows), in the user's coordinates; for a wave problem
-        also grid values, of the grid's shape or (K, *grid).
+        also grid values, of the grid's shape or ``(K, *grid)``.
     n_steps : int
         How many steps N the map spans (default 1).
     finite_differences : bool
