@@ -51,25 +51,33 @@ fn parse(line: &str) -> Option<Mapping<'_>> {
     })
 }
 
+/// The read-only, non-executable mappings (start, end) of the file mapped at `here`.
 #[cfg(target_os = "linux")]
-fn touch(maps: &str, here: usize) -> usize {
-    const PAGE: usize = 4096;
+fn read_only_ranges(maps: &str, here: usize) -> Vec<(usize, usize)> {
     let Some(file) = maps
         .lines()
         .filter_map(parse)
         .find(|m| m.start <= here && here < m.end)
         .map(|m| m.file)
     else {
-        return 0;
+        return Vec::new();
     };
+    maps.lines()
+        .filter_map(parse)
+        .filter(|m| m.file == file && m.perms.starts_with("r--"))
+        .map(|m| (m.start, m.end))
+        .collect()
+}
+
+#[cfg(target_os = "linux")]
+fn touch(maps: &str, here: usize) -> usize {
+    const PAGE: usize = 4096;
     let mut pages = 0;
-    for m in maps.lines().filter_map(parse) {
-        if m.file == file && m.perms.starts_with("r--") {
-            for page in (m.start..m.end).step_by(PAGE) {
-                // SAFETY: a readable mapping of this library, mapped while the library is.
-                unsafe { std::ptr::read_volatile(page as *const u8) };
-                pages += 1;
-            }
+    for (start, end) in read_only_ranges(maps, here) {
+        for page in (start..end).step_by(PAGE) {
+            // SAFETY: a readable mapping of this library, mapped while the library is.
+            unsafe { std::ptr::read_volatile(page as *const u8) };
+            pages += 1;
         }
     }
     pages
@@ -85,22 +93,20 @@ mod tests {
         let pages = map_read_only_data();
         assert!(pages > 0);
         assert_eq!(map_read_only_data(), pages);
-        // Made-up maps: only the read-only mappings of the file holding `here`.
+        // Made-up maps: of the file holding the address, its read-only data alone.
         let maps = "1000-3000 r--p 00000000 fe:00 7 /lib/a.so\n\
                     3000-5000 r-xp 00002000 fe:00 7 /lib/a.so\n\
                     5000-6000 rw-p 00004000 fe:00 7 /lib/a.so\n\
+                    6000-7000 r--p 00005000 fe:00 7 /lib/a.so\n\
+                    7000-8000 rw-p 00000000 00:00 0\n\
                     9000-a000 r--p 00000000 fe:00 8 /lib/b.so\n";
         assert_eq!(
-            parse(maps.lines().nth(1).unwrap()).unwrap().file,
-            "/lib/a.so"
+            read_only_ranges(maps, 0x4000),
+            [(0x1000, 0x3000), (0x6000, 0x7000)]
         );
+        assert_eq!(read_only_ranges(maps, 0x9800), [(0x9000, 0xa000)]);
+        assert!(read_only_ranges(maps, 0x7800).is_empty()); // anonymous: no file
+        assert!(read_only_ranges(maps, 0xb000).is_empty());
         assert!(parse("garbage").is_none());
-        // (`touch` reads real addresses: only the lookup is checked on made-up ones)
-        let file = maps
-            .lines()
-            .filter_map(parse)
-            .find(|m| m.start <= 0x4000 && 0x4000 < m.end)
-            .map(|m| m.file);
-        assert_eq!(file, Some("/lib/a.so"));
     }
 }
