@@ -16,8 +16,8 @@
 //! Every block of at least [`LINE_ALIGNED_FROM`] bytes also starts on a cache line ([`LINE`]
 //! bytes). Why: glibc aligns to 16 bytes, so the rows of a run-time shape's state (`Vec<f64>`)
 //! started anywhere in a cache line, and every 64-byte vector load and store of the AVX-512
-//! copies then touched two lines. FPU m = 1000, one trajectory (AMD Zen 5): 771 → 487 ns a
-//! step without energies, 1053 → 684 ns with them (the same code, its blocks aligned).
+//! copies then touched two lines. FPU m = 1000, one trajectory (AMD Zen 5, alternated
+//! processes): 761–775 → 478–495 ns a step without energies, 962–1034 → 682–686 ns with them.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::Mutex;
