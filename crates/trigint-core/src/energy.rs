@@ -3,9 +3,7 @@
 //!
 //! The channels themselves (names, order) are the table in [`crate::channels`].
 
-use crate::error::{CoreError, CoreResult};
 use crate::real::Real;
-use crate::sum::Sum8;
 
 pub use crate::channels::{sum, FIRST_BLOCK, MODIFIED, OSCILLATORY, SLOW, TOTAL};
 use crate::channels::{Value, CHANNELS};
@@ -41,144 +39,8 @@ pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
     a * (p * p) + b * (q * q)
 }
 
-/// A bilinear invariant per axis, K_m = Σ_k w_mk (q_a p_b − q_b p_a) over index pairs (a_k, b_k)
-/// of the kernels' coordinates: the momentum of a wave equation in real Fourier coordinates
-/// (a, b the cosine and sine coordinates of a mode, w_mk its wavenumber along axis m). Its
-/// channels are the table's per-axis entries ([`crate::channels`]). A grid without complex
-/// modes (2 points per axis) has no pairs: its K_m are the empty sum, 0.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PairForms {
-    pub a: Vec<usize>,
-    pub b: Vec<usize>,
-    /// Axis-major: weights[m * pairs + k].
-    pub weights: Vec<f64>,
-    /// The number of axes m (channels).
-    axes: usize,
-    /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), … (see [`PairForms::evaluate`]).
-    consecutive: Option<usize>,
-}
-
-/// Axes of the pair forms the observing sweep of many blocks takes along (a wave equation's
-/// momentum has d ≤ 3).
-pub const MAX_RIDING_AXES: usize = 3;
-
-/// The first coordinate a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), …: the modes of a
-/// 1-D wave equation in the grid's order, read without an index.
-fn consecutive(a: &[usize], b: &[usize]) -> Option<usize> {
-    let a0 = *a.first()?;
-    let all = a
-        .iter()
-        .zip(b)
-        .enumerate()
-        .all(|(t, (&a, &b))| a == a0 + 2 * t && b == a + 1);
-    all.then_some(a0)
-}
-
-impl PairForms {
-    /// Checks the pairs against n coordinates and the weights against the pairs and `axes`.
-    pub fn new(
-        a: Vec<usize>,
-        b: Vec<usize>,
-        weights: Vec<f64>,
-        axes: usize,
-        n: usize,
-    ) -> CoreResult<Self> {
-        let bad = |reason: String| Err(CoreError::invalid("pair forms", reason));
-        if a.len() != b.len() {
-            return bad(format!("{} first and {} second indices", a.len(), b.len()));
-        }
-        if let Some(i) = a.iter().chain(&b).find(|&&i| i >= n) {
-            return bad(format!("index {i} is not below the {n} coordinates"));
-        }
-        if axes == 0 || weights.len() != axes * a.len() {
-            return bad(format!(
-                "{} weights for {} pairs and {axes} axes (one weight per pair and axis, at \
-                 least one axis)",
-                weights.len(),
-                a.len()
-            ));
-        }
-        if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
-            return bad(format!("weight {w} is not finite"));
-        }
-        let consecutive = consecutive(&a, &b);
-        Ok(PairForms {
-            a,
-            b,
-            weights,
-            axes,
-            consecutive,
-        })
-    }
-
-    /// Number of axes (channels).
-    pub fn axes(&self) -> usize {
-        self.axes
-    }
-
-    /// (a₀, pairs, axes) when the observing sweep of these blocks can compute the forms in its
-    /// pass (its riders, recursion/blocks.rs): consecutive pairs, none split by a block end,
-    /// all among the oscillatory coordinates, at most
-    /// [`MAX_RIDING_AXES`] axes.
-    pub fn riding(&self) -> Option<(usize, usize, usize)> {
-        let a0 = self.consecutive?;
-        (self.axes() <= MAX_RIDING_AXES).then_some((a0, self.a.len(), self.axes()))
-    }
-
-    /// Whether the forms can ride along the sweep of the blocks ending at `ends` over the
-    /// oscillatory coordinates from `ns` on (see [`PairForms::riding`]).
-    pub fn rides_along(&self, ns: usize, ends: &[usize]) -> bool {
-        let Some((a0, count, _)) = self.riding() else {
-            return false;
-        };
-        let last = a0 + 2 * count;
-        a0 >= ns && ends.last().is_some_and(|&e| e >= last) && {
-            // No block ends between the two coordinates of a pair: at a0 + 2t + 1.
-            !ends
-                .iter()
-                .any(|&e| e > a0 && e < last && (e - a0) % 2 == 1)
-        }
-    }
-
-    /// K_m of the state (q, p) into `out[m]`, each a sum in the kernels' fixed order.
-    pub fn evaluate<L: Real>(&self, q: &[L], p: &[L], out: &mut [L]) {
-        let pairs = self.a.len();
-        if let Some(a0) = self.consecutive {
-            // The same terms in the same order, from two contiguous slices.
-            let (q, p) = (&q[a0..a0 + 2 * pairs], &p[a0..a0 + 2 * pairs]);
-            for (m, k) in out.iter_mut().enumerate() {
-                let w = &self.weights[m * pairs..(m + 1) * pairs];
-                let mut sum = Sum8::new();
-                let term = |t: usize| {
-                    let (qa, qb, pa, pb) = (q[2 * t], q[2 * t + 1], p[2 * t], p[2 * t + 1]);
-                    L::splat(w[t]) * (qa * pb - qb * pa)
-                };
-                let whole = pairs / 8 * 8;
-                for base in (0..whole).step_by(8) {
-                    let x: [L; 8] = std::array::from_fn(|t| term(base + t));
-                    if base == 0 {
-                        sum.add8::<true>(&x);
-                    } else {
-                        sum.add8::<false>(&x);
-                    }
-                }
-                for t in whole..pairs {
-                    sum.add(t % 8, t >= 8, term(t));
-                }
-                *k = sum.total(pairs);
-            }
-            return;
-        }
-        for (m, k) in out.iter_mut().enumerate() {
-            let w = &self.weights[m * pairs..(m + 1) * pairs];
-            let mut sum = Sum8::new();
-            for (t, ((&a, &b), &wt)) in self.a.iter().zip(&self.b).zip(w).enumerate() {
-                sum.add(t % 8, t >= 8, L::splat(wt) * (q[a] * p[b] - q[b] * p[a]));
-            }
-            *k = sum.total(pairs);
-        }
-    }
-}
+mod pairs;
+pub use pairs::{PairForms, PairRun, MAX_RIDING_AXES};
 
 /// Sums of the per-coordinate forms over one state, as a sweep accumulates them, indexed by
 /// [`crate::channels::sum`].
@@ -245,34 +107,39 @@ pub struct Extremes<L> {
 /// Per-block sums Σ(p² + ω²q²) halved in place into the block energies I_j, with their
 /// running maxima in `high` and minima in `low` (the same slices' lengths).
 ///
-/// The extremes are read from a copy of each chunk on the stack and written to their rows:
-/// updated in place, `hi = if e > hi { e } else { hi }` is a store of a select of a load from
-/// the same address, which LLVM turns into a masked store (`vmaskmovpd` with AVX2, microcoded
-/// on AMD Zen 2 and 3). From the copy it is a `vmaxpd`/`vminpd` and a plain store, the same
-/// bits. (The chunk's length is not a constant, so the copy is not optimized away.)
+/// The extremes are read from a copy of each chunk of eight on the stack and written to their
+/// rows: updated in place, `hi = if e > hi { e } else { hi }` is a store of a select of a load
+/// from the same address, which LLVM turns into a masked store (`vmaskmovpd` with AVX2,
+/// microcoded on AMD Zen 2 and 3). From the copy, which the compiler cannot see through
+/// (`black_box`), it is a `vmaxpd`/`vminpd` and a plain store, the same bits. (A copy of a
+/// chunk of variable length, as before, was two calls of `memcpy` per 64 blocks: 6 % of a
+/// 512²-point wave step.)
 #[inline(always)]
 pub fn halve_into_extremes<L: Real>(sums: &mut [L], high: &mut [L], low: &mut [L]) {
-    const CHUNK: usize = 64;
+    const CHUNK: usize = 8;
     let half = L::splat(0.5);
     let n = sums.len().min(high.len()).min(low.len());
-    let (mut old_high, mut old_low) = ([L::zero(); CHUNK], [L::zero(); CHUNK]);
-    let mut start = 0;
-    while start < n {
-        let len = (n - start).min(CHUNK);
-        let range = start..start + len;
-        old_high[..len].copy_from_slice(&high[range.clone()]);
-        old_low[..len].copy_from_slice(&low[range.clone()]);
-        let rows = sums[range.clone()]
-            .iter_mut()
-            .zip(&mut high[range.clone()])
-            .zip(&mut low[range]);
-        for (((s, hi), lo), (&was_high, &was_low)) in rows.zip(old_high.iter().zip(&old_low)) {
-            let e = half * *s;
-            *s = e;
-            *hi = was_high.keep_max(e);
-            *lo = was_low.keep_min(e);
-        }
-        start += len;
+    let (sums, high, low) = (&mut sums[..n], &mut high[..n], &mut low[..n]);
+    let whole = n / CHUNK * CHUNK;
+    let chunks = sums[..whole]
+        .chunks_exact_mut(CHUNK)
+        .zip(high[..whole].chunks_exact_mut(CHUNK))
+        .zip(low[..whole].chunks_exact_mut(CHUNK));
+    for ((s, hi), lo) in chunks {
+        let s: &mut [L; CHUNK] = s.try_into().expect("a whole chunk");
+        let hi: &mut [L; CHUNK] = hi.try_into().expect("a whole chunk");
+        let lo: &mut [L; CHUNK] = lo.try_into().expect("a whole chunk");
+        let (was_high, was_low) = std::hint::black_box((*hi, *lo));
+        let e: [L; CHUNK] = std::array::from_fn(|t| half * s[t]);
+        *s = e;
+        *hi = std::array::from_fn(|t| was_high[t].keep_max(e[t]));
+        *lo = std::array::from_fn(|t| was_low[t].keep_min(e[t]));
+    }
+    for i in whole..n {
+        let e = half * sums[i];
+        sums[i] = e;
+        high[i] = high[i].keep_max(e);
+        low[i] = low[i].keep_min(e);
     }
 }
 

@@ -78,7 +78,7 @@ fn many_blocks<L: Real, Sh: Shape>(
     let (mut total, mut modified_total) = (Sum8::new(), Sum8::new());
     // The pair forms' sums, and the next pair.
     let mut pair_sums = [Sum8::<L>::new(); MAX_RIDING_AXES];
-    let mut next_pair = 0;
+    let (mut next_pair, mut next_run) = (0, 0);
     let mut pair_terms = riders.pairs.as_ref().map(|_| [L::zero(); PAIR_CHUNK]);
     let keep_blocks = store || riders.extremes.is_none();
     // No block longer than two: a pass of twice as many coordinates as blocks is then all
@@ -164,32 +164,43 @@ fn many_blocks<L: Real, Sh: Shape>(
         }
         if let Some((forms, _)) = &riders.pairs {
             // Every pair inside this pass (no block end splits one): q_n and p_n are here.
-            let (a0, count, axes) = forms.riding().expect("checked by rides_along");
-            let first = next_pair;
-            // The pairs t whose second coordinate a0 + 2t + 1 is below `end`: t < (end − a0)/2.
-            // (Counted one by one, this was a tenth of the 2¹⁶-point wave sweep's time.)
-            if end > a0 + 1 {
-                next_pair = next_pair.max(((end - a0) / 2).min(count));
-            }
+            let runs = forms.riding().expect("checked by rides_along");
+            let (count, axes) = (forms.a.len(), forms.axes());
             let buffer = pair_terms.as_mut().expect("made with the pair forms");
-            for lo in (first..next_pair).step_by(PAIR_CHUNK) {
-                let hi = (lo + PAIR_CHUNK).min(next_pair);
-                let from = a0 + 2 * lo;
-                let to = a0 + 2 * hi;
-                let (qs, ps) = (&q[from..to], &ps[from - start..to - start]);
-                let x = &mut buffer[..hi - lo];
-                for (m, sum) in pair_sums.iter_mut().enumerate().take(axes) {
-                    let wm = &forms.weights[m * count + lo..m * count + hi];
-                    for (((x, qq), pp), &wt) in x
-                        .iter_mut()
-                        .zip(qs.chunks_exact(2))
-                        .zip(ps.chunks_exact(2))
-                        .zip(wm)
-                    {
-                        *x = L::splat(wt) * (qq[0] * pp[1] - qq[1] * pp[0]);
+            while let Some(run) = runs.get(next_run) {
+                // The run's pairs t whose second coordinate at + 2(t − first) + 1 is below
+                // `end`. (Counted one by one, this was a tenth of the 2¹⁶-point wave sweep's
+                // time.)
+                let below = if end > run.at + 1 {
+                    ((end - run.at) / 2).min(run.len)
+                } else {
+                    0
+                };
+                let upto = run.first + below;
+                for lo in (next_pair..upto).step_by(PAIR_CHUNK) {
+                    let hi = (lo + PAIR_CHUNK).min(upto);
+                    let from = run.at + 2 * (lo - run.first);
+                    let to = from + 2 * (hi - lo);
+                    let (qs, ps) = (&q[from..to], &ps[from - start..to - start]);
+                    let x = &mut buffer[..hi - lo];
+                    for (m, sum) in pair_sums.iter_mut().enumerate().take(axes) {
+                        let wm = &forms.weights[m * count + lo..m * count + hi];
+                        for (((x, qq), pp), &wt) in x
+                            .iter_mut()
+                            .zip(qs.chunks_exact(2))
+                            .zip(ps.chunks_exact(2))
+                            .zip(wm)
+                        {
+                            *x = L::splat(wt) * (qq[0] * pp[1] - qq[1] * pp[0]);
+                        }
+                        sum.add_from(lo, x);
                     }
-                    sum.add_from(lo, x);
                 }
+                next_pair = next_pair.max(upto);
+                if below < run.len {
+                    break;
+                }
+                next_run += 1;
             }
         }
         if !store {

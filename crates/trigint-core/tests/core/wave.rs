@@ -103,6 +103,95 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
 }
 
 #[test]
+fn the_momentum_of_a_grid_of_several_axes_rides_along_with_the_bits_of_its_own_loop() {
+    // On a grid of 2 or 3 axes the modes' pairs (a, a + 1) come in runs, broken by the
+    // self-conjugate modes' single coordinates: they ride along the sweep run by run, and give
+    // the bits of the separate loop that an extra pair (0, n − 1) of weight 0 forces.
+    for shape in [vec![6, 4], vec![8, 6], vec![4, 6, 4]] {
+        let wave = Wave::new(
+            &shape,
+            &Chain::monomial(0.25, 4),
+            (0..shape.iter().product()).collect(),
+        )
+        .unwrap();
+        let (grid, d) = (wave.grid(), shape.len());
+        let n = grid.points();
+        let j = grid.wavevectors();
+        let omega: Vec<f64> = (0..n)
+            .map(|i| {
+                (1.0 + j[d * i..d * (i + 1)]
+                    .iter()
+                    .map(|&x| (x * x) as f64)
+                    .sum::<f64>())
+                .sqrt()
+            })
+            .collect();
+        let co = trigonometric(0.05, &omega, sinc, |_| 1.0);
+        let pairs: Vec<usize> = (0..n)
+            .filter(|&i| grid.slots()[i].part == trigint_core::spectral::Part::Cos)
+            .collect();
+        let weights: Vec<f64> = (0..d)
+            .flat_map(|m| pairs.iter().map(move |&a| j[d * a + m] as f64))
+            .collect();
+        let seen = |a: Vec<usize>, w: Vec<f64>| {
+            let b = a
+                .iter()
+                .map(|&a| if a == 0 { n - 1 } else { a + 1 })
+                .collect();
+            let mut lay = layout(&omega);
+            lay.pair_forms = Some(PairForms::new(a, b, w, d, n).unwrap());
+            lay
+        };
+        let riding = seen(pairs.clone(), weights.clone());
+        let forms = riding.pair_forms.as_ref().unwrap();
+        assert!(
+            forms.riding().is_some_and(|runs| runs.len() > 1),
+            "{shape:?}"
+        );
+        assert!(
+            forms.rides_along(riding.n_slow, &riding.block_ends),
+            "{shape:?}"
+        );
+        let (mut a2, mut w2) = (pairs.clone(), Vec::new());
+        a2.push(0);
+        for m in 0..d {
+            w2.extend_from_slice(&weights[m * pairs.len()..(m + 1) * pairs.len()]);
+            w2.push(0.0);
+        }
+        let separate = seen(a2, w2);
+        assert!(separate.pair_forms.as_ref().unwrap().riding().is_none());
+        let q0: Vec<f64> = (0..n).map(|i| 0.1 * ((i as f64) * 0.7).sin()).collect();
+        let p0: Vec<f64> = (0..n).map(|i| 0.05 * ((i as f64) * 1.3).cos()).collect();
+        let (x, y) = (
+            run(&wave, &riding, &co, &q0, &p0),
+            run(&wave, &separate, &co, &q0, &p0),
+        );
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(x.steps_done, 200);
+        assert_eq!(
+            bits(&x.initial_energies),
+            bits(&y.initial_energies),
+            "{shape:?}"
+        );
+        assert_eq!(bits(&x.max_deviation), bits(&y.max_deviation), "{shape:?}");
+        assert_eq!(bits(&x.samples.q), bits(&y.samples.q), "{shape:?}");
+        assert_eq!(
+            bits(&x.samples.energies),
+            bits(&y.samples.energies),
+            "{shape:?}"
+        );
+        // Every axis's momentum is a number that moved, not a zero.
+        let k = x.max_deviation.len();
+        for c in k - d..k {
+            assert!(
+                x.initial_energies[c] != 0.0 && x.max_deviation[c] > 1e-9,
+                "{shape:?} {c}"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_prepared_layout_and_method_give_the_bits_of_a_plain_run_at_every_call() {
     // The kernels' rows kept by the prepared method from the first call are the rows the
     // second call would have made: the same bits, call after call; one-step form as well.
