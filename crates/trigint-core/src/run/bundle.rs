@@ -95,6 +95,9 @@ pub struct Bundle<'a, L: Real, Sh: Shape, P: Potential> {
     pub(super) block_sums: Vec<L>,
     /// The layout's pair forms (a momentum), streamed as the per-axis channels into `axes`.
     pub(super) pairs: Option<&'a PairForms>,
+    /// Whether the pair forms ride along the sweep of many blocks ([`PairForms::rides_along`],
+    /// a walk over every block and pair: decided once, not at every piece of a run).
+    pub(super) pairs_ride: bool,
     pub(super) axes: Vec<L>,
     pub(super) lanes: Vec<Lane>,
     /// The lanes still running.
@@ -178,6 +181,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             ext: Extremes::new(n_blocks, 0),
             block_sums: vec![L::zero(); n_blocks.max(1)],
             pairs: None,
+            pairs_ride: false,
             axes: Vec::new(),
             lanes,
             active: LaneSet::first(count),
@@ -201,6 +205,8 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         };
         let (n_blocks, axes) = (self.sh.block_ends().len(), f.axes());
         self.pairs = pairs;
+        self.pairs_ride =
+            !self.sh.single_block() && f.rides_along(self.sh.ns(), self.sh.block_ends());
         self.axes = vec![L::zero(); axes];
         // The per-axis channels after the blocks' (grown, not made again: a 2¹⁶-point wave
         // has 32 769 blocks).

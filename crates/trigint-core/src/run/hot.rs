@@ -94,6 +94,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
             ext: std::mem::replace(&mut self.ext, Extremes::placeholder()),
             block_sums: &mut self.block_sums,
             pairs: self.pairs,
+            pairs_ride: self.pairs_ride,
             axes: &mut self.axes,
             active: self.active,
             n,
@@ -127,6 +128,8 @@ struct HotLoop<
     ext: Extremes<L>,
     block_sums: &'a mut [L],
     pairs: Option<&'a PairForms>,
+    /// [`Bundle::pairs_ride`].
+    pairs_ride: bool,
     axes: &'a mut [L],
     active: LaneSet,
     n: u64,
@@ -218,7 +221,7 @@ impl<
         // The sweep of many blocks takes the block extremes along, and the pair forms where
         // they allow it (a wave equation's momentum): one pass over the state.
         let many = !sh.single_block();
-        let riding = pairs.filter(|f| many && TWO_STEP && f.rides_along(sh.ns(), sh.block_ends()));
+        let riding = pairs.filter(|_| many && TWO_STEP && self.pairs_ride);
         let n_blocks = sh.block_ends().len();
         // Any other pair form needs p_n itself: the two-step sweep then stores it (q is
         // advanced after).
