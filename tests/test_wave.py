@@ -293,7 +293,7 @@ def test_ensemble_lanes_equal_integrate_bit_for_bit(shape):
     # the lanes as of one trajectory.
     prob = ti.problems.wave(shape if len(shape) > 1 else shape[0], rho=1.0, potential="u**4/4")
     u0, v0 = smooth_data(shape, seed=5)
-    d = len(shape)
+    axes = len(shape)
     deltas = [0.0, 1e-3, -2e-3]
     q0 = np.array([u0 + d for d in deltas])
     p0 = np.array([v0] * 3)
@@ -303,7 +303,7 @@ def test_ensemble_lanes_equal_integrate_bit_for_bit(shape):
         kept = ds["step"].values[t] >= 0
         assert np.array_equal(ds["q"].values[t][kept], sol.q)
         assert np.array_equal(ds["energies"].values[t][kept][:, 0], sol.energies["total"].values)
-        assert np.array_equal(ds["energies"].values[t][kept][:, -d:], sol.energies["momentum"].values)
+        assert np.array_equal(ds["energies"].values[t][kept][:, -axes:], sol.energies["momentum"].values)
         assert np.array_equal(ds["max_deviation"].values[t], np.array(list(sol.max_deviation.values())))
         assert np.array_equal(ds["action"].values[t][kept], sol.energies["action"].values)
         assert np.array_equal(ds["action"].wavenumber.values, sol.energies["action"].wavenumber.values)

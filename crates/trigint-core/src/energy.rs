@@ -40,7 +40,7 @@ pub fn modified<L: Real>(p: L, q: L, a: L, b: L) -> L {
 }
 
 mod pairs;
-pub use pairs::{PairForms, PairRun, MAX_RIDING_AXES};
+pub use pairs::{PairForms, RunOfPairs, MAX_RIDING_AXES};
 
 /// Sums of the per-coordinate forms over one state, as a sweep accumulates them, indexed by
 /// [`crate::channels::sum`].
@@ -380,11 +380,12 @@ impl Samples {
 mod tests {
     use super::halve_into_extremes;
 
-    /// The chunked update against the plain loop, bit for bit: lengths around the chunk's, and
-    /// extremes that hold, that move and that meet NaN and infinite energies.
+    /// The chunked update against the plain loop, bit for bit: lengths around the chunk's (and
+    /// the earlier chunk's of 64), and extremes that hold, that move and that meet NaN and
+    /// infinite energies.
     #[test]
     fn halved_extremes_are_the_plain_loops() {
-        for n in [0, 1, 2, 63, 64, 65, 130, 200] {
+        for n in [0, 1, 2, 7, 8, 9, 16, 63, 64, 65, 130, 200] {
             let sums: Vec<f64> = (0..n)
                 .map(|j| match j % 7 {
                     3 => f64::NAN,

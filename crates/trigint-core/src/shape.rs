@@ -301,7 +301,7 @@ impl Layout {
             return bad(format!("slow coordinate {i} has a non-zero frequency"));
         }
         if let Some(f) = &self.pair_forms {
-            if let Some(i) = f.a.iter().chain(&f.b).find(|&&i| i >= n) {
+            if let Some(i) = f.pairs().0.iter().chain(f.pairs().1).find(|&&i| i >= n) {
                 return bad(format!(
                     "pair form index {i} is not below the {n} coordinates"
                 ));

@@ -12,10 +12,10 @@ use crate::sum::Sum8;
 /// modes (2 points per axis) has no pairs: its K_m are the empty sum, 0.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairForms {
-    pub a: Vec<usize>,
-    pub b: Vec<usize>,
+    a: Vec<usize>,
+    b: Vec<usize>,
     /// Axis-major: weights[m * pairs + k].
-    pub weights: Vec<f64>,
+    weights: Vec<f64>,
     /// The number of axes m (channels).
     axes: usize,
     /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), … (see [`PairForms::evaluate`]).
@@ -23,13 +23,13 @@ pub struct PairForms {
     /// The pairs as runs of consecutive ones when every pair is (a, a + 1) and they come in
     /// the coordinates' order: the modes of a wave equation of any dimension, read without an
     /// index (see [`PairForms::riding`]). Empty otherwise.
-    runs: Vec<PairRun>,
+    runs: Vec<RunOfPairs>,
 }
 
 /// Pairs `first`, `first` + 1, …, `len` of them, on the coordinates (`at`, `at` + 1),
 /// (`at` + 2, `at` + 3), ….
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PairRun {
+pub struct RunOfPairs {
     pub at: usize,
     pub first: usize,
     pub len: usize,
@@ -37,16 +37,16 @@ pub struct PairRun {
 
 /// The runs of [`PairForms::runs`]: empty unless every b = a + 1 and every a is at least two
 /// above the one before.
-fn pair_runs(a: &[usize], b: &[usize]) -> Vec<PairRun> {
+fn pair_runs(a: &[usize], b: &[usize]) -> Vec<RunOfPairs> {
     let adjacent = a.iter().zip(b).all(|(&a, &b)| b == a + 1);
     if !adjacent || a.windows(2).any(|w| w[1] < w[0] + 2) {
         return Vec::new();
     }
-    let mut runs: Vec<PairRun> = Vec::new();
+    let mut runs: Vec<RunOfPairs> = Vec::new();
     for (t, &at) in a.iter().enumerate() {
         match runs.last_mut() {
             Some(r) if r.at + 2 * r.len == at => r.len += 1,
-            _ => runs.push(PairRun {
+            _ => runs.push(RunOfPairs {
                 at,
                 first: t,
                 len: 1,
@@ -116,11 +116,22 @@ impl PairForms {
         self.axes
     }
 
+    /// The pairs (a_k, b_k), checked at construction (the fields are private, so that the runs
+    /// found there stay the pairs' runs).
+    pub fn pairs(&self) -> (&[usize], &[usize]) {
+        (&self.a, &self.b)
+    }
+
+    /// The weights, axis-major: `weights()[m * pairs + k]`.
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
     /// The runs of pairs (in the pairs' order) when the observing sweep of these blocks can
     /// compute the forms in its pass (its riders, recursion/blocks.rs): every pair (a, a + 1),
     /// in the coordinates' order, at most [`MAX_RIDING_AXES`] axes. None otherwise, or without
     /// pairs.
-    pub fn riding(&self) -> Option<&[PairRun]> {
+    pub fn riding(&self) -> Option<&[RunOfPairs]> {
         (!self.runs.is_empty() && self.axes() <= MAX_RIDING_AXES).then_some(&self.runs[..])
     }
 

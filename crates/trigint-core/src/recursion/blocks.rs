@@ -165,7 +165,7 @@ fn many_blocks<L: Real, Sh: Shape>(
         if let Some((forms, _)) = &riders.pairs {
             // Every pair inside this pass (no block end splits one): q_n and p_n are here.
             let runs = forms.riding().expect("checked by rides_along");
-            let (count, axes) = (forms.a.len(), forms.axes());
+            let (count, axes) = (forms.pairs().0.len(), forms.axes());
             let buffer = pair_terms.as_mut().expect("made with the pair forms");
             while let Some(run) = runs.get(next_run) {
                 // The run's pairs t whose second coordinate at + 2(t − first) + 1 is below
@@ -184,7 +184,7 @@ fn many_blocks<L: Real, Sh: Shape>(
                     let (qs, ps) = (&q[from..to], &ps[from - start..to - start]);
                     let x = &mut buffer[..hi - lo];
                     for (m, sum) in pair_sums.iter_mut().enumerate().take(axes) {
-                        let wm = &forms.weights[m * count + lo..m * count + hi];
+                        let wm = &forms.weights()[m * count + lo..m * count + hi];
                         for (((x, qq), pp), &wt) in x
                             .iter_mut()
                             .zip(qs.chunks_exact(2))
@@ -211,7 +211,7 @@ fn many_blocks<L: Real, Sh: Shape>(
         (j, start) = (j_end, end);
     }
     if let Some((forms, out)) = riders.pairs {
-        debug_assert_eq!(next_pair, forms.a.len());
+        debug_assert_eq!(next_pair, forms.pairs().0.len());
         for (k, sum) in out.iter_mut().zip(&pair_sums) {
             *k = sum.total(next_pair);
         }

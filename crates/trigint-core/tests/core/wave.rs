@@ -106,8 +106,18 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
 fn the_momentum_of_a_grid_of_several_axes_rides_along_with_the_bits_of_its_own_loop() {
     // On a grid of 2 or 3 axes the modes' pairs (a, a + 1) come in runs, broken by the
     // self-conjugate modes' single coordinates: they ride along the sweep run by run, and give
-    // the bits of the separate loop that an extra pair (0, n − 1) of weight 0 forces.
-    for shape in [vec![6, 4], vec![8, 6], vec![4, 6, 4]] {
+    // the bits of the separate loop that an extra pair (0, n − 1) of weight 0 forces. Grids
+    // within one pass of the sweep (256 coordinates), and grids of many passes: passes that
+    // end inside a run, runs longer than a chunk of the terms (64 pairs), and one run in 1-D.
+    for shape in [
+        vec![6, 4],
+        vec![8, 6],
+        vec![4, 6, 4],
+        vec![24, 20],
+        vec![4, 200],
+        vec![6, 8, 10],
+        vec![300],
+    ] {
         let wave = Wave::new(
             &shape,
             &Chain::monomial(0.25, 4),
@@ -145,7 +155,9 @@ fn the_momentum_of_a_grid_of_several_axes_rides_along_with_the_bits_of_its_own_l
         let riding = seen(pairs.clone(), weights.clone());
         let forms = riding.pair_forms.as_ref().unwrap();
         assert!(
-            forms.riding().is_some_and(|runs| runs.len() > 1),
+            forms
+                .riding()
+                .is_some_and(|runs| runs.len() > usize::from(d > 1)),
             "{shape:?}"
         );
         assert!(
@@ -160,8 +172,14 @@ fn the_momentum_of_a_grid_of_several_axes_rides_along_with_the_bits_of_its_own_l
         }
         let separate = seen(a2, w2);
         assert!(separate.pair_forms.as_ref().unwrap().riding().is_none());
-        let q0: Vec<f64> = (0..n).map(|i| 0.1 * ((i as f64) * 0.7).sin()).collect();
-        let p0: Vec<f64> = (0..n).map(|i| 0.05 * ((i as f64) * 1.3).cos()).collect();
+        // Grid values of the same size on every grid (u = S q, SᵀS = N): larger ones blow up.
+        let size = (24.0 / n as f64).sqrt();
+        let q0: Vec<f64> = (0..n)
+            .map(|i| size * 0.1 * ((i as f64) * 0.7).sin())
+            .collect();
+        let p0: Vec<f64> = (0..n)
+            .map(|i| size * 0.05 * ((i as f64) * 1.3).cos())
+            .collect();
         let (x, y) = (
             run(&wave, &riding, &co, &q0, &p0),
             run(&wave, &separate, &co, &q0, &p0),
