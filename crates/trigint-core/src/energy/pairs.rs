@@ -18,8 +18,6 @@ pub struct PairForms {
     weights: Vec<f64>,
     /// The number of axes m (channels).
     axes: usize,
-    /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), … (see [`PairForms::evaluate`]).
-    consecutive: Option<usize>,
     /// The pairs as runs of consecutive ones when every pair is (a, a + 1) and they come in
     /// the coordinates' order: the modes of a wave equation of any dimension, read without an
     /// index (see [`PairForms::riding`]). Empty otherwise.
@@ -60,18 +58,6 @@ fn pair_runs(a: &[usize], b: &[usize]) -> Vec<RunOfPairs> {
 /// momentum has d ≤ 3).
 pub const MAX_RIDING_AXES: usize = 3;
 
-/// The first coordinate a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), …: the modes of a
-/// 1-D wave equation in the grid's order, read without an index.
-fn consecutive(a: &[usize], b: &[usize]) -> Option<usize> {
-    let a0 = *a.first()?;
-    let all = a
-        .iter()
-        .zip(b)
-        .enumerate()
-        .all(|(t, (&a, &b))| a == a0 + 2 * t && b == a + 1);
-    all.then_some(a0)
-}
-
 impl PairForms {
     /// Checks the pairs against n coordinates and the weights against the pairs and `axes`.
     pub fn new(
@@ -99,14 +85,12 @@ impl PairForms {
         if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
             return bad(format!("weight {w} is not finite"));
         }
-        let consecutive = consecutive(&a, &b);
         let runs = pair_runs(&a, &b);
         Ok(PairForms {
             a,
             b,
             weights,
             axes,
-            consecutive,
             runs,
         })
     }
@@ -114,6 +98,15 @@ impl PairForms {
     /// Number of axes (channels).
     pub fn axes(&self) -> usize {
         self.axes
+    }
+
+    /// a₀ when the pairs are (a₀, a₀ + 1), (a₀ + 2, a₀ + 3), …, one run: the modes of a 1-D wave
+    /// equation in the grid's order, read without an index (see [`PairForms::evaluate`]).
+    fn consecutive(&self) -> Option<usize> {
+        match self.runs[..] {
+            [run] => Some(run.at),
+            _ => None,
+        }
     }
 
     /// The pairs (a_k, b_k), checked at construction (the fields are private, so that the runs
@@ -160,7 +153,7 @@ impl PairForms {
     /// K_m of the state (q, p) into `out[m]`, each a sum in the kernels' fixed order.
     pub fn evaluate<L: Real>(&self, q: &[L], p: &[L], out: &mut [L]) {
         let pairs = self.a.len();
-        if let Some(a0) = self.consecutive {
+        if let Some(a0) = self.consecutive() {
             // The same terms in the same order, from two contiguous slices.
             let (q, p) = (&q[a0..a0 + 2 * pairs], &p[a0..a0 + 2 * pairs]);
             for (m, k) in out.iter_mut().enumerate() {

@@ -205,8 +205,7 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         };
         let (n_blocks, axes) = (self.sh.block_ends().len(), f.axes());
         self.pairs = pairs;
-        self.pairs_ride =
-            !self.sh.single_block() && f.rides_along(self.sh.ns(), self.sh.block_ends());
+        self.pairs_ride = f.rides_along(self.sh.ns(), self.sh.block_ends());
         self.axes = vec![L::zero(); axes];
         // The per-axis channels after the blocks' (grown, not made again: a 2¹⁶-point wave
         // has 32 769 blocks).

@@ -48,6 +48,19 @@ fn run_for(
     .unwrap()
 }
 
+/// The layout of frequencies `omega` (one block per run of equal ones) with the pair forms of
+/// pairs (a, a + 1) for the given a's, (0, n − 1) for a = 0, and `axes` rows of weights.
+fn with_pairs(omega: &[f64], a: Vec<usize>, weights: Vec<f64>, axes: usize) -> Layout {
+    let n = omega.len();
+    let b = a
+        .iter()
+        .map(|&a| if a == 0 { n - 1 } else { a + 1 })
+        .collect();
+    let mut lay = layout(omega);
+    lay.pair_forms = Some(PairForms::new(a, b, weights, axes, n).unwrap());
+    lay
+}
+
 #[test]
 fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
     // u_tt = u_xx − u − u³ on 16 points: modes j = 0, ±1, …, ±7, 8 as coordinates
@@ -59,15 +72,7 @@ fn the_momentum_taken_along_has_the_bits_of_its_own_loop() {
     let co = trigonometric(0.05, &omega, sinc, |_| 1.0);
     let pairs: Vec<usize> = (1..n - 1).step_by(2).collect();
     let weights: Vec<f64> = pairs.iter().map(|&a| j[a] as f64).collect();
-    let seen = |a: Vec<usize>, w: Vec<f64>| {
-        let b = a
-            .iter()
-            .map(|&a| if a == 0 { n - 1 } else { a + 1 })
-            .collect();
-        let mut lay = layout(&omega);
-        lay.pair_forms = Some(PairForms::new(a, b, w, 1, n).unwrap());
-        lay
-    };
+    let seen = |a, w| with_pairs(&omega, a, w, 1);
     // Consecutive pairs (a, a + 1) ride along the sweep; one more pair (0, 15) of weight 0
     // makes them not consecutive, so that they are evaluated in their own loop, with the same
     // sum (a zero term added).
@@ -143,15 +148,7 @@ fn the_momentum_of_a_grid_of_several_axes_rides_along_with_the_bits_of_its_own_l
         let weights: Vec<f64> = (0..d)
             .flat_map(|m| pairs.iter().map(move |&a| j[d * a + m] as f64))
             .collect();
-        let seen = |a: Vec<usize>, w: Vec<f64>| {
-            let b = a
-                .iter()
-                .map(|&a| if a == 0 { n - 1 } else { a + 1 })
-                .collect();
-            let mut lay = layout(&omega);
-            lay.pair_forms = Some(PairForms::new(a, b, w, d, n).unwrap());
-            lay
-        };
+        let seen = |a, w| with_pairs(&omega, a, w, d);
         let riding = seen(pairs.clone(), weights.clone());
         let forms = riding.pair_forms.as_ref().unwrap();
         assert!(
