@@ -19,13 +19,13 @@
 
 use std::sync::Arc;
 
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
 use crate::error::{CoreError, CoreResult};
 
 mod line;
+mod twiddle;
 
 /// Largest grid (points in all): a 3-D 256³ grid.
 pub const MAX_POINTS: usize = 1 << 24;
@@ -100,11 +100,9 @@ pub struct Spectral {
     singles: Vec<usize>,
     /// The wavevector of each coordinate (signed FFT frequencies, d per coordinate).
     wavevectors: Vec<i64>,
-    /// The real transforms along the last axis (grids of two or three axes).
-    r2c: Option<Arc<dyn RealToComplex<f64>>>,
-    c2r: Option<Arc<dyn ComplexToReal<f64>>>,
-    /// A grid of one axis: both transforms fused with the coordinates' packing.
-    line: Option<line::Line>,
+    /// The transforms along the last axis: on a grid of one axis fused with the coordinates'
+    /// packing, else row by row of the half spectrum.
+    last: line::Line,
     /// Forward and inverse complex FFTs of the first d − 1 axes.
     forward: Vec<Arc<dyn Fft<f64>>>,
     inverse: Vec<Arc<dyn Fft<f64>>>,
@@ -223,13 +221,9 @@ impl Spectral {
         }
         debug_assert_eq!(slots.len(), points);
         let (runs, singles) = pair_runs(&slots);
-        let mut real = RealFftPlanner::<f64>::new();
         let mut complex = FftPlanner::<f64>::new();
-        let line = (d == 1).then(|| line::Line::new(last, &mut complex));
         Ok(Spectral {
-            r2c: line.is_none().then(|| real.plan_fft_forward(last)),
-            c2r: line.is_none().then(|| real.plan_fft_inverse(last)),
-            line,
+            last: line::Line::new(last, &mut complex),
             forward: shape[..d - 1]
                 .iter()
                 .map(|&n| complex.plan_fft_forward(n))
@@ -270,9 +264,7 @@ impl Spectral {
     pub fn workspace(&self) -> SpectralWorkspace {
         let longest = self.shape.iter().copied().max().unwrap_or(1);
         let scratch = [
-            self.r2c.as_ref().map_or(0, |f| f.get_scratch_len()),
-            self.c2r.as_ref().map_or(0, |f| f.get_scratch_len()),
-            self.line.as_ref().map_or(0, |l| l.scratch_len()),
+            self.last.scratch_len(),
             self.forward
                 .iter()
                 .chain(&self.inverse)
@@ -313,8 +305,8 @@ impl Spectral {
     /// u = S q: the grid values (row-major, N of them) of the coordinates q.
     pub fn to_grid(&self, q: &[f64], u: &mut [f64], ws: &mut SpectralWorkspace) {
         debug_assert_eq!(q.len(), self.points);
-        if let Some(line) = &self.line {
-            return line.to_grid(q, u, &mut ws.half, &mut ws.scratch);
+        if self.shape.len() == 1 {
+            return self.last.to_grid(q, u, &mut ws.half, &mut ws.scratch);
         }
         let r = std::f64::consts::FRAC_1_SQRT_2;
         for run in &self.runs {
@@ -347,13 +339,7 @@ impl Spectral {
         for (row, out) in ws.half.chunks_exact_mut(hl).zip(u.chunks_exact_mut(last)) {
             // The first and last entries of each row are real up to rounding (the mirror
             // symmetry of the planes); the real transform takes them as real.
-            row[0].im = 0.0;
-            row[hl - 1].im = 0.0;
-            self.c2r
-                .as_ref()
-                .expect("planned for grids of several axes")
-                .process_with_scratch(row, out, &mut ws.scratch)
-                .expect("c2r of a row with real end points");
+            self.last.row_to_grid(row, out, &mut ws.scratch);
         }
     }
 
@@ -419,19 +405,16 @@ impl Spectral {
         scale: f64,
         ws: &mut SpectralWorkspace,
     ) {
-        if let Some(line) = &self.line {
-            return line.transpose(w, out, scale, &mut ws.half, &mut ws.scratch);
+        if self.shape.len() == 1 {
+            return self
+                .last
+                .transpose(w, out, scale, &mut ws.half, &mut ws.scratch);
         }
         let d = self.shape.len();
         let hl = self.half[d - 1];
         let last = self.shape[d - 1];
-        let r2c = self
-            .r2c
-            .as_ref()
-            .expect("planned for grids of several axes");
         for (row, input) in ws.half.chunks_exact_mut(hl).zip(w.chunks_exact_mut(last)) {
-            r2c.process_with_scratch(input, row, &mut ws.scratch)
-                .expect("r2c of a row");
+            self.last.row_from_grid(input, row, &mut ws.scratch);
         }
         for a in 0..d - 1 {
             self.along_axis(a, self.forward[a].as_ref(), ws);

@@ -1,15 +1,17 @@
-//! The transforms of a one-axis grid, each in one pass around the complex FFT of n/2 points.
+//! The transforms of one axis, each in one pass around the complex FFT of n/2 points.
 //!
 //! A real FFT of even length n is a complex FFT of n/2 points with a pass that combines bins
 //! j and n/2 − j with a twiddle factor (before the FFT for complex-to-real, after it for
-//! real-to-complex). Done by `realfft`, that pass reads and writes the half spectrum, which the
-//! packing of the coordinates (u = S q) or their unpacking (Sᵀ w) reads and writes again: at
-//! 2¹⁶ points each is a pass over 512 KiB, more than a core's second-level cache holds with the
-//! state beside it. Here the packing is folded into the twiddle pass, so the coordinates are
-//! read (or written) once and the half spectrum never exists.
+//! real-to-complex; see [`super::twiddle`]). On a grid of one axis that pass is fused with the
+//! packing of the coordinates (u = S q) or their unpacking (Sᵀ w): done by `realfft`, its pass
+//! reads and writes the half spectrum, which the packing reads and writes again, at 2¹⁶ points
+//! each a pass over 512 KiB, more than a core's second-level cache holds with the state beside
+//! it. Here the coordinates are read (or written) once and the half spectrum never exists.
+//! On the last axis of a grid of several axes the same passes run on the rows of the half
+//! spectrum, in place ([`Line::row_to_grid`], [`Line::row_from_grid`]).
 //!
 //! The arithmetic is `realfft`'s (3.5), term for term and with its twiddle factors and its
-//! inner FFT plan, so the grid values and coordinates are the same bits as the unfused
+//! inner FFT plan, so the grid values and coordinates are the same bits as `realfft`'s
 //! transforms (a test compares them).
 
 use std::sync::Arc;
@@ -17,13 +19,12 @@ use std::sync::Arc;
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
-/// The twiddle factor e^{−2πi·index/n}, computed as `realfft` computes it.
-fn twiddle(index: usize, n: usize) -> Complex64 {
-    let angle = -2f64 * std::f64::consts::PI / n as f64 * index as f64;
-    Complex64::new(angle.cos(), angle.sin())
-}
+use super::twiddle::{
+    c2r_from_coordinates, c2r_in_place, over_pairs, r2c_in_place, r2c_to_coordinates, Twiddles,
+    CHUNK,
+};
 
-/// The fused transforms of a grid of n points (n even); coordinates ordered
+/// The transforms of an axis of n points (n even); on a grid of one axis, coordinates ordered
 /// q₀, a₁, b₁, …, a_{n/2−1}, b_{n/2−1}, q_{n/2} (see [`super::Spectral`]).
 pub(super) struct Line {
     n: usize,
@@ -40,17 +41,12 @@ impl Line {
     /// `FftPlanner`: its choice depends only on the length and the CPU).
     pub(super) fn new(n: usize, planner: &mut FftPlanner<f64>) -> Line {
         debug_assert!(n >= 2 && n.is_multiple_of(2));
-        let count = if n.is_multiple_of(4) {
-            n / 4
-        } else {
-            n / 4 + 1
-        };
         Line {
             n,
             forward: planner.plan_fft_forward(n / 2),
             inverse: planner.plan_fft_inverse(n / 2),
-            forward_twiddles: Twiddles::new((1..count).map(|i| twiddle(i, n) * 0.5)),
-            inverse_twiddles: Twiddles::new((1..count).map(|i| twiddle(i, n).conj())),
+            forward_twiddles: Twiddles::new(n, true),
+            inverse_twiddles: Twiddles::new(n, false),
         }
     }
 
@@ -62,7 +58,7 @@ impl Line {
     }
 
     /// Bins of the half spectrum, n/2 + 1.
-    fn bins(&self) -> usize {
+    pub(super) fn bins(&self) -> usize {
         self.n / 2 + 1
     }
 
@@ -83,22 +79,8 @@ impl Line {
         let (first, last) = (Complex64::new(q[0], 0.0), Complex64::new(q[n - 1], 0.0));
         let (sum, diff) = (first + last, first - last);
         buffer[0] = Complex64::new(sum.re - sum.im, diff.re - diff.im);
-        // The pairs (j, m − 1 − j), 0 < j < m/2: in chunks of eight through local arrays, which
-        // the compiler vectorizes, in the widest copy for this CPU (the same bits in each).
-        crate::isa::wide(
-            #[inline(always)]
-            || {
-                let (pairs, mut j) = (m / 2 - 1, 1);
-                while j + CHUNK <= pairs + 1 {
-                    c2r_pairs::<CHUNK>(q, j, m, &self.inverse_twiddles, buffer);
-                    j += CHUNK;
-                }
-                while j <= pairs {
-                    c2r_pairs::<1>(q, j, m, &self.inverse_twiddles, buffer);
-                    j += 1;
-                }
-            },
-        );
+        let tw = &self.inverse_twiddles;
+        over_pairs!(m, c2r_from_coordinates((q, m, tw), buffer));
         if m % 2 == 1 {
             let centre = bin(m / 2);
             buffer[m / 2] = (centre + centre).conj();
@@ -128,158 +110,62 @@ impl Line {
         let first = buffer[0];
         out[0] = (first.re + first.im) * scale;
         out[n - 1] = (first.re - first.im) * scale;
-        crate::isa::wide(
-            #[inline(always)]
-            || {
-                let (pairs, mut j) = (m / 2 - 1, 1);
-                while j + CHUNK <= pairs + 1 {
-                    r2c_pairs::<CHUNK>(buffer, j, m, &self.forward_twiddles, s2, out);
-                    j += CHUNK;
-                }
-                while j <= pairs {
-                    r2c_pairs::<1>(buffer, j, m, &self.forward_twiddles, s2, out);
-                    j += 1;
-                }
-            },
-        );
+        let (buffer, tw) = (&*buffer, &self.forward_twiddles);
+        over_pairs!(m, r2c_to_coordinates((buffer, m, tw, s2), out));
         if m % 2 == 1 {
             let (c, j) = (buffer[m / 2].conj(), m / 2);
             out[2 * j - 1] = c.re * s2;
             out[2 * j] = -c.im * s2;
         }
     }
-}
 
-/// Pairs of bins per chunk of the twiddle passes.
-const CHUNK: usize = 8;
-
-/// The complex-to-real pre-pass of the pairs of bins (j + t, m − 1 − j − t), t < K, read from
-/// the coordinates q: `realfft`'s formulas. The chunk is taken apart into rows of real and
-/// imaginary parts first (the second bins of the pairs reversed), so that every operation runs
-/// on a row (see [`r2c_pairs`]).
-#[inline(always)]
-fn c2r_pairs<const K: usize>(
-    q: &[f64],
-    j: usize,
-    m: usize,
-    twiddles: &Twiddles,
-    buffer: &mut [Complex64],
-) {
-    let r = std::f64::consts::FRAC_1_SQRT_2;
-    let (lo, hi) = (
-        &q[2 * j - 1..2 * (j + K) - 1],
-        &q[2 * (m - j - K) - 1..2 * (m - j) - 1],
-    );
-    let (w_re, w_im) = twiddles.chunk::<K>(j - 1);
-    // Bin j + t: coordinates 2(j + t) − 1 and 2(j + t); bin m − 1 − j − t: the chunk `hi`
-    // read backwards.
-    let x_re: [f64; K] = std::array::from_fn(|t| lo[2 * t] * r);
-    let x_im: [f64; K] = std::array::from_fn(|t| -lo[2 * t + 1] * r);
-    let y_re: [f64; K] = std::array::from_fn(|t| hi[2 * (K - 1 - t)] * r);
-    let y_im: [f64; K] = std::array::from_fn(|t| -hi[2 * (K - 1 - t) + 1] * r);
-    let (mut left, mut right) = ([[0.0; 2]; K], [[0.0; 2]; K]);
-    for t in 0..K {
-        let (sum_re, sum_im) = (x_re[t] + y_re[t], x_im[t] + y_im[t]);
-        let (diff_re, diff_im) = (x_re[t] - y_re[t], x_im[t] - y_im[t]);
-        let (real, imag) = twiddled(sum_im, diff_re, w_re[t], w_im[t]);
-        left[t] = [sum_re - real, diff_im - imag];
-        right[K - 1 - t] = [sum_re + real, -imag - diff_im];
-    }
-    for (b, v) in buffer[j..j + K].iter_mut().zip(&left) {
-        *b = Complex64::new(v[0], v[1]);
-    }
-    for (b, v) in buffer[m - j - K..m - j].iter_mut().zip(&right) {
-        *b = Complex64::new(v[0], v[1]);
-    }
-}
-
-/// realfft's twiddled terms of a pair of bins, with sum = x + x_rev, diff = x − x_rev and the
-/// twiddle w: (Im(sum·w.re) + Re(diff·w.im), Im(sum·w.im) − Re(diff·w.re)), in its order (of
-/// sum and diff only Im(sum) and Re(diff) enter).
-#[inline(always)]
-fn twiddled(sum_im: f64, diff_re: f64, w_re: f64, w_im: f64) -> (f64, f64) {
-    (
-        sum_im * w_re + diff_re * w_im,
-        sum_im * w_im - diff_re * w_re,
-    )
-}
-
-/// The real-to-complex post-pass of the pairs of bins (j + t, m − 1 − j − t), t < K, of the
-/// FFT's output in `buffer`, written to their coordinates in `out` times s2 = √2·scale, in rows
-/// of real and imaginary parts. (With complex numbers and −x·s2 in the imaginary parts, the
-/// lanes of a vector had different operations and LLVM left the pass scalar: 8 % of a
-/// 2¹⁶-point wave step's samples, against 5 % now, AMD Zen 5.)
-#[inline(always)]
-fn r2c_pairs<const K: usize>(
-    buffer: &[Complex64],
-    j: usize,
-    m: usize,
-    twiddles: &Twiddles,
-    s2: f64,
-    out: &mut [f64],
-) {
-    let (lo, hi) = (
-        as_reals(&buffer[j..j + K]),
-        as_reals(&buffer[m - j - K..m - j]),
-    );
-    let (w_re, w_im) = twiddles.chunk::<K>(j - 1);
-    let x_re: [f64; K] = std::array::from_fn(|t| lo[2 * t]);
-    let x_im: [f64; K] = std::array::from_fn(|t| lo[2 * t + 1]);
-    let y_re: [f64; K] = std::array::from_fn(|t| hi[2 * (K - 1 - t)]);
-    let y_im: [f64; K] = std::array::from_fn(|t| hi[2 * (K - 1 - t) + 1]);
-    // Rows of the two bins' results, both in the order of t (the second reversed on storing).
-    let (mut lo_re, mut lo_im, mut hi_re, mut hi_im) = ([0.0; K], [0.0; K], [0.0; K], [0.0; K]);
-    for t in 0..K {
-        let (sum_re, sum_im) = (x_re[t] + y_re[t], x_im[t] + y_im[t]);
-        let (diff_re, diff_im) = (x_re[t] - y_re[t], x_im[t] - y_im[t]);
-        let half_sum_re = 0.5 * sum_re;
-        let half_diff_im = 0.5 * diff_im;
-        let (real, imag) = twiddled(sum_im, diff_re, w_re[t], w_im[t]);
-        // Bin j + t: (half_sum_re + real, half_diff_im + imag); bin m − 1 − j − t:
-        // (half_sum_re − real, imag − half_diff_im); each bin c to (c.re·s2, −c.im·s2).
-        // (−x·s2 as x·(−s2): the same bits, and one operation in every lane.)
-        lo_re[t] = (half_sum_re + real) * s2;
-        lo_im[t] = (half_diff_im + imag) * -s2;
-        hi_re[t] = (half_sum_re - real) * s2;
-        hi_im[t] = (imag - half_diff_im) * -s2;
-    }
-    let lo = &mut out[2 * j - 1..2 * (j + K) - 1];
-    for t in 0..K {
-        (lo[2 * t], lo[2 * t + 1]) = (lo_re[t], lo_im[t]);
-    }
-    let hi = &mut out[2 * (m - j - K) - 1..2 * (m - j) - 1];
-    for t in 0..K {
-        (hi[2 * (K - 1 - t)], hi[2 * (K - 1 - t) + 1]) = (hi_re[t], hi_im[t]);
-    }
-}
-
-/// Twiddle factors as two rows, real and imaginary parts.
-struct Twiddles {
-    re: Vec<f64>,
-    im: Vec<f64>,
-}
-
-impl Twiddles {
-    fn new(factors: impl Iterator<Item = Complex64>) -> Twiddles {
-        let (re, im) = factors.map(|w| (w.re, w.im)).unzip();
-        Twiddles { re, im }
+    /// A row of the half spectrum (n/2 + 1 bins) to its n real values: `realfft`'s
+    /// complex-to-real transform (its pre-pass in place in `row`, whose first and last
+    /// imaginary parts are taken as 0).
+    pub(super) fn row_to_grid(
+        &self,
+        row: &mut [Complex64],
+        out: &mut [f64],
+        scratch: &mut [Complex64],
+    ) {
+        let (n, m) = (self.n, self.bins());
+        debug_assert!(row.len() == m && out.len() == n);
+        row[0].im = 0.0;
+        row[m - 1].im = 0.0;
+        let (first, last) = (row[0], row[m - 1]);
+        let (sum, diff) = (first + last, first - last);
+        row[0] = Complex64::new(sum.re - sum.im, diff.re - diff.im);
+        let tw = &self.inverse_twiddles;
+        over_pairs!(m, c2r_in_place((m, tw), row));
+        if m % 2 == 1 {
+            let centre = row[m / 2];
+            row[m / 2] = (centre + centre).conj();
+        }
+        self.inverse
+            .process_outofplace_with_scratch(&mut row[..n / 2], as_complex(out), scratch);
     }
 
-    /// Factors at..at + K.
-    #[inline(always)]
-    fn chunk<const K: usize>(&self, at: usize) -> (&[f64; K], &[f64; K]) {
-        (
-            self.re[at..at + K].try_into().expect("K factors"),
-            self.im[at..at + K].try_into().expect("K factors"),
-        )
+    /// n real values w (used as scratch) to their row of the half spectrum: `realfft`'s
+    /// real-to-complex transform.
+    pub(super) fn row_from_grid(
+        &self,
+        w: &mut [f64],
+        row: &mut [Complex64],
+        scratch: &mut [Complex64],
+    ) {
+        let (n, m) = (self.n, self.bins());
+        debug_assert!(w.len() == n && row.len() == m);
+        self.forward
+            .process_outofplace_with_scratch(as_complex(w), &mut row[..n / 2], scratch);
+        let first = row[0];
+        row[0] = Complex64::new(first.re + first.im, 0.0);
+        row[m - 1] = Complex64::new(first.re - first.im, 0.0);
+        let tw = &self.forward_twiddles;
+        over_pairs!(m, r2c_in_place((m, tw), row));
+        if m % 2 == 1 {
+            row[m / 2].im = -row[m / 2].im;
+        }
     }
-}
-
-/// Complex numbers as their parts (re, im interleaved).
-fn as_reals(x: &[Complex64]) -> &[f64] {
-    // SAFETY: `Complex64` is `#[repr(C)]` {re: f64, im: f64} (see `as_complex`); the result
-    // borrows `x`.
-    unsafe { std::slice::from_raw_parts(x.as_ptr() as *const f64, 2 * x.len()) }
 }
 
 /// n real numbers as n/2 complex ones (re, im interleaved), as `realfft` reads them.
@@ -332,6 +218,42 @@ mod tests {
             out[2 * j] = -half[j].im * s2;
         }
         out
+    }
+
+    #[test]
+    fn the_row_transforms_give_realffts_bits() {
+        for n in [2, 4, 6, 8, 10, 12, 30, 64, 96, 1024, 4098, 1 << 14] {
+            let line = Line::new(n, &mut FftPlanner::new());
+            let mut scratch = vec![Complex64::default(); line.scratch_len()];
+            let mut planner = RealFftPlanner::<f64>::new();
+            // A row of the half spectrum with real end points (as the planes' symmetry makes
+            // them), to grid values.
+            let v = values(2 * (n / 2 + 1), 0.53);
+            let mut row: Vec<Complex64> = v
+                .chunks_exact(2)
+                .map(|c| Complex64::new(c[0], c[1]))
+                .collect();
+            let last = row.len() - 1;
+            (row[0].im, row[last].im) = (0.0, 0.0);
+            let (mut ours, mut theirs) = (vec![0.0; n], vec![0.0; n]);
+            line.row_to_grid(&mut row.clone(), &mut ours, &mut scratch);
+            let c2r = planner.plan_fft_inverse(n);
+            c2r.process(&mut row, &mut theirs).unwrap();
+            let same =
+                |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(same(&ours, &theirs), "row to grid, n = {n}");
+            // Grid values to their row.
+            let w = values(n, 1.17);
+            let mut ours = vec![Complex64::default(); n / 2 + 1];
+            let mut theirs = ours.clone();
+            line.row_from_grid(&mut w.clone(), &mut ours, &mut scratch);
+            planner
+                .plan_fft_forward(n)
+                .process(&mut w.clone(), &mut theirs)
+                .unwrap();
+            let parts = |r: &[Complex64]| r.iter().flat_map(|c| [c.re, c.im]).collect::<Vec<_>>();
+            assert!(same(&parts(&ours), &parts(&theirs)), "grid to row, n = {n}");
+        }
     }
 
     #[test]
