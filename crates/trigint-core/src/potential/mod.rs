@@ -143,6 +143,24 @@ pub trait Potential: Sync {
         ))
     }
 
+    /// [`force_derivative`](Self::force_derivative) at the x of the [`force`](Self::force)
+    /// just evaluated, with `evaluated` what
+    /// [`evaluated_in_user_coordinates`](Self::evaluated_in_user_coordinates) gave after it: a
+    /// potential that made them there (a wave's grid values u = S x) starts from them instead
+    /// of making them again (the same transform of the same numbers, so the same bits). The
+    /// default ignores them.
+    fn force_derivative_after_force(
+        &self,
+        _evaluated: Option<&[f64]>,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut Self::Workspace<f64>,
+        scratch: &mut Scratch,
+    ) -> CoreResult<()> {
+        self.force_derivative(x, v, out, ws, scratch)
+    }
+
     /// Checks that `n` coordinates fit this potential.
     fn check_dim(&self, n: usize) -> CoreResult<()> {
         if n == self.dim() {

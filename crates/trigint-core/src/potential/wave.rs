@@ -196,6 +196,67 @@ impl Wave {
             }
         }
     }
+
+    /// G(x)v (see [`Potential::force_derivative`]), from u = S x where it is `known`. The state's
+    /// order is read in place where the grid's is the problem's, else through a permuted copy.
+    fn derivative(
+        &self,
+        known: Option<&[f64]>,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut WaveWorkspace,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        let curvature = self.v.curvature()?;
+        if s.registers.is_empty() {
+            s.registers.push(curvature.tile_registers::<f64>(TILE));
+        }
+        let n = self.grid.points();
+        let grid = &mut ws.grid;
+        let w = Scratch::sized(&mut s.b, n);
+        if self.identity {
+            if known.is_none() {
+                self.grid.to_grid(x, &mut grid.u, &mut grid.fft);
+            }
+            self.grid.to_grid(v, w, &mut grid.fft);
+        } else {
+            let fourier = Scratch::sized(&mut s.a, n);
+            if known.is_none() {
+                for (k, &i) in self.order.iter().enumerate() {
+                    fourier[i] = x[k];
+                }
+                self.grid.to_grid(fourier, &mut grid.u, &mut grid.fft);
+            }
+            for (k, &i) in self.order.iter().enumerate() {
+                fourier[i] = v[k];
+            }
+            self.grid.to_grid(fourier, w, &mut grid.fft);
+        }
+        curvature.eval_tiles(
+            known.unwrap_or(&grid.u),
+            Some(&mut grid.g[..]),
+            false,
+            &mut s.registers[0],
+            &mut grid.values,
+            TILE,
+        );
+        for (c, wi) in grid.g.iter_mut().zip(w.iter()) {
+            *c *= *wi;
+        }
+        let scale = 1.0 / n as f64;
+        if self.identity {
+            self.grid.transpose(&mut grid.g, out, scale, &mut grid.fft);
+            return Ok(());
+        }
+        let fourier = Scratch::sized(&mut s.a, n);
+        self.grid
+            .transpose(&mut grid.g, fourier, scale, &mut grid.fft);
+        for (k, &i) in self.order.iter().enumerate() {
+            out[k] = fourier[i];
+        }
+        Ok(())
+    }
 }
 
 impl Potential for Wave {
@@ -275,39 +336,22 @@ impl Potential for Wave {
         ws: &mut WaveWorkspace,
         s: &mut Scratch,
     ) -> CoreResult<()> {
-        let curvature = self.v.curvature()?;
-        if s.registers.is_empty() {
-            s.registers.push(curvature.tile_registers::<f64>(TILE));
-        }
-        let n = self.grid.points();
-        let grid = &mut ws.grid;
-        let fourier = Scratch::sized(&mut s.a, n);
-        for (k, &i) in self.order.iter().enumerate() {
-            fourier[i] = x[k];
-        }
-        self.grid.to_grid(fourier, &mut grid.u, &mut grid.fft);
-        for (k, &i) in self.order.iter().enumerate() {
-            fourier[i] = v[k];
-        }
-        let w = Scratch::sized(&mut s.b, n);
-        self.grid.to_grid(fourier, w, &mut grid.fft);
-        curvature.eval_tiles(
-            &grid.u,
-            Some(&mut grid.g[..]),
-            false,
-            &mut s.registers[0],
-            &mut grid.values,
-            TILE,
-        );
-        for (c, wi) in grid.g.iter_mut().zip(w.iter()) {
-            *c *= *wi;
-        }
-        self.grid
-            .transpose(&mut grid.g, fourier, 1.0 / n as f64, &mut grid.fft);
-        for (k, &i) in self.order.iter().enumerate() {
-            out[k] = fourier[i];
-        }
-        Ok(())
+        self.derivative(None, x, v, out, ws, s)
+    }
+
+    /// As [`Wave::force_derivative`], with u = S x the grid values of the force just evaluated
+    /// (one transform fewer).
+    fn force_derivative_after_force(
+        &self,
+        evaluated: Option<&[f64]>,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+        ws: &mut WaveWorkspace,
+        s: &mut Scratch,
+    ) -> CoreResult<()> {
+        let u = evaluated.filter(|u| u.len() == self.grid.points());
+        self.derivative(u, x, v, out, ws, s)
     }
 
     fn value<L: Real>(&self, x: &[L], ws: &mut WaveWorkspace) -> CoreResult<L> {

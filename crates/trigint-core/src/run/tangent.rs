@@ -211,10 +211,13 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
         )?;
         let n = self.sh.n();
         let q = L::as_f64s(&st.q.get()[..n]).expect("one lane");
+        // What the force's evaluation made of its point on the way (a wave's grid values).
+        let made = self.pot.evaluated_in_user_coordinates::<L>(&self.ws);
         if phi_identity {
             for j in 0..self.dev.k {
                 let r = j * n..(j + 1) * n;
-                self.pot.force_derivative(
+                self.pot.force_derivative_after_force(
+                    made,
                     q,
                     &self.dev.dq[r.clone()],
                     &mut self.gv[r],
@@ -233,7 +236,8 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
             for i in 0..n {
                 self.phi_v[i] = phi[i] * v[i];
             }
-            self.pot.force_derivative(
+            self.pot.force_derivative_after_force(
+                made,
                 x,
                 &self.phi_v,
                 &mut self.gv[r],
