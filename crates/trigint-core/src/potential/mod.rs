@@ -148,7 +148,8 @@ pub trait Potential: Sync {
     /// [`evaluated_in_user_coordinates`](Self::evaluated_in_user_coordinates) gave after it: a
     /// potential that made them there (a wave's grid values u = S x) starts from them instead
     /// of making them again (the same transform of the same numbers, so the same bits). The
-    /// default ignores them.
+    /// default ignores them (inlined, as the call it makes is where it stands).
+    #[inline(always)]
     fn force_derivative_after_force(
         &self,
         _evaluated: Option<&[f64]>,
