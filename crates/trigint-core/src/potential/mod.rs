@@ -148,7 +148,10 @@ pub trait Potential: Sync {
     /// [`evaluated_in_user_coordinates`](Self::evaluated_in_user_coordinates) gave after it: a
     /// potential that made them there (a wave's grid values u = S x) starts from them instead
     /// of making them again (the same transform of the same numbers, so the same bits). The
-    /// default ignores them (inlined, as the call it makes is where it stands).
+    /// caller guarantees that the last evaluation in that workspace was `force` at this x (not
+    /// an inline force, which leaves no values, nor a `value` after it). The default ignores
+    /// them; it is inlined, so that the potentials without an override keep their
+    /// `force_derivative` inlined at the call site.
     #[inline(always)]
     fn force_derivative_after_force(
         &self,

@@ -339,8 +339,9 @@ impl Potential for Wave {
         self.derivative(None, x, v, out, ws, s)
     }
 
-    /// As [`Wave::force_derivative`], with u = S x the grid values of the force just evaluated
-    /// (one transform fewer).
+    /// As [`Wave::force_derivative`], with u = S x the grid values the force at x left (one
+    /// transform fewer). `evaluated` must come from a force evaluated at this very x, with no
+    /// `value` after it (which leaves the grid values of its own point).
     fn force_derivative_after_force(
         &self,
         evaluated: Option<&[f64]>,
@@ -457,5 +458,34 @@ mod tests {
         assert!(Wave::new(&[8], &quartic_and_sine(), vec![0; 8]).is_err());
         assert!(Wave::new(&[8], &quartic_and_sine(), (0..7).collect()).is_err());
         assert!(Wave::new(&[7], &quartic_and_sine(), (0..7).collect()).is_err());
+    }
+
+    #[test]
+    fn the_derivative_after_the_force_has_the_bits_of_the_derivative_alone() {
+        // the grid's order and a permuted one, on grids of 1, 2 and 3 axes
+        for shape in [vec![16], vec![4, 6], vec![2, 4, 4]] {
+            let n: usize = shape.iter().product();
+            for order in [(0..n).collect::<Vec<_>>(), (0..n).rev().collect()] {
+                let w = Wave::new(&shape, &quartic_and_sine(), order).unwrap();
+                let (mut ws, mut ws64) = (w.workspace::<f64>(), w.workspace::<f64>());
+                let mut scratch = Scratch::default();
+                let x: Vec<f64> = (0..n).map(|i| 0.3 * ((i as f64) * 0.77).sin()).collect();
+                let v: Vec<f64> = (0..n).map(|i| ((i as f64) * 1.3).cos()).collect();
+                let mut f = vec![0.0; n];
+                w.force(&x, &mut f, false, &mut ws).unwrap();
+                let made = w.evaluated_in_user_coordinates::<f64>(&ws);
+                assert!(made.is_some());
+                let (mut after, mut alone) = (vec![0.0; n], vec![0.0; n]);
+                w.force_derivative_after_force(made, &x, &v, &mut after, &mut ws64, &mut scratch)
+                    .unwrap();
+                w.force_derivative(&x, &v, &mut alone, &mut ws64, &mut scratch)
+                    .unwrap();
+                assert!(after
+                    .iter()
+                    .zip(&alone)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()));
+                assert!(alone.iter().any(|&g| g != 0.0), "{shape:?}");
+            }
+        }
     }
 }

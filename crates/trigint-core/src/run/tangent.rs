@@ -211,8 +211,12 @@ impl<'a, P: Potential, L: Real, Sh: Shape> Run<'a, P, L, Sh> {
         )?;
         let n = self.sh.n();
         let q = L::as_f64s(&st.q.get()[..n]).expect("one lane");
-        // What the force's evaluation made of its point on the way (a wave's grid values).
-        let made = self.pot.evaluated_in_user_coordinates::<L>(&self.ws);
+        // What the force's evaluation made of its point on the way (a wave's grid values): the
+        // evaluation above is at the point G is taken at (q, or φq in the scratch x), without
+        // U (`evaluate` would follow it with U at q), and not inline (which leaves nothing).
+        let made = (!inline)
+            .then(|| self.pot.evaluated_in_user_coordinates::<L>(&self.ws))
+            .flatten();
         if phi_identity {
             for j in 0..self.dev.k {
                 let r = j * n..(j + 1) * n;

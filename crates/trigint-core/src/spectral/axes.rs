@@ -7,7 +7,8 @@ use rustfft::Fft;
 
 use super::{Spectral, SpectralWorkspace};
 
-/// Lines of the half spectrum per group of [`Spectral::along_axis`]: a cache line of them.
+/// Lines of the half spectrum per group of [`Spectral::along_axis`]: 64 bytes of each row,
+/// about a cache line (the rows are not aligned to one).
 pub(super) const LINES: usize = 4;
 
 /// [`LINES`] lines of the half spectrum (element i of line c at `half[i * stride + c]`) into
@@ -45,8 +46,8 @@ fn lines_of(group: &mut [Complex64], n: usize) -> [&mut [Complex64]; LINES] {
 
 impl Spectral {
     /// The complex FFT of every line of the half spectrum along `axis` (< d − 1), in place:
-    /// [`LINES`] neighbouring lines at a time, so that each cache line (and page) of the half
-    /// spectrum is read and written once per group, not once per line.
+    /// [`LINES`] neighbouring lines at a time, so that the cache lines (and pages) of the half
+    /// spectrum are read and written about once per group, not once per line.
     pub(super) fn along_axis(&self, axis: usize, fft: &dyn Fft<f64>, ws: &mut SpectralWorkspace) {
         let n = self.half[axis];
         let stride: usize = self.half[axis + 1..].iter().product();

@@ -120,8 +120,9 @@ impl Line {
     }
 
     /// A row of the half spectrum (n/2 + 1 bins) to its n real values: `realfft`'s
-    /// complex-to-real transform (its pre-pass in place in `row`, whose first and last
-    /// imaginary parts are taken as 0).
+    /// complex-to-real transform (its pre-pass in place in `row`), with the first and last
+    /// imaginary parts set to +0 as the callers set them before calling `realfft` (which keeps
+    /// a −0 there).
     pub(super) fn row_to_grid(
         &self,
         row: &mut [Complex64],
