@@ -223,14 +223,10 @@ impl Wave {
         } else {
             let fourier = Scratch::sized(&mut s.a, n);
             if known.is_none() {
-                for (k, &i) in self.order.iter().enumerate() {
-                    fourier[i] = x[k];
-                }
+                self.gather(x, 0, fourier);
                 self.grid.to_grid(fourier, &mut grid.u, &mut grid.fft);
             }
-            for (k, &i) in self.order.iter().enumerate() {
-                fourier[i] = v[k];
-            }
+            self.gather(v, 0, fourier);
             self.grid.to_grid(fourier, w, &mut grid.fft);
         }
         curvature.eval_tiles(

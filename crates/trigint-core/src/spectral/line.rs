@@ -58,7 +58,7 @@ impl Line {
     }
 
     /// Bins of the half spectrum, n/2 + 1.
-    pub(super) fn bins(&self) -> usize {
+    fn bins(&self) -> usize {
         self.n / 2 + 1
     }
 

@@ -56,7 +56,7 @@ impl Twiddles {
 }
 
 /// The real and imaginary parts of K pairs of bins: x of bins j + t, y of bins m − 1 − j − t.
-pub(super) struct Pairs<const K: usize> {
+struct Pairs<const K: usize> {
     x_re: [f64; K],
     x_im: [f64; K],
     y_re: [f64; K],
