@@ -72,6 +72,13 @@ pub trait Potential: Sync {
     /// compiler vectorizes (see `run::lanes`).
     const INLINE_FORCE: bool = false;
 
+    /// Whether a bundle's lane loop (see `run::lanes`) may take this kind's force as a call on
+    /// the bundle's rows, made before the lanes' steps: a kind without an inline force whose
+    /// [`force`](Self::force) and [`value`](Self::value) never fail (compiled programs). The
+    /// rest of the step then runs lane by lane as for an inline force, not in the bundle's own
+    /// arithmetic.
+    const ROW_FORCE: bool = false;
+
     /// Whether [`inline_force`](Self::inline_force) serves this potential as it is configured.
     fn inline_force_ready(&self) -> bool {
         false
@@ -108,6 +115,34 @@ pub trait Potential: Sync {
         with_value: bool,
         ws: &mut Self::Workspace<L>,
     ) -> CoreResult<L>;
+
+    /// [`force`](Self::force) with its return value written into `u`: the same numbers. A kind
+    /// whose U comes from machine code writes it there in place (compiled programs): a bundle's
+    /// U returned by value went through a chain of 64-byte copies.
+    #[inline(always)]
+    fn force_into<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        ws: &mut Self::Workspace<L>,
+        u: &mut L,
+    ) -> CoreResult<()> {
+        *u = self.force(x, force, with_value, ws)?;
+        Ok(())
+    }
+
+    /// [`value`](Self::value) written into `u` (see [`force_into`](Self::force_into)).
+    #[inline(always)]
+    fn value_into<L: Real>(
+        &self,
+        x: &[L],
+        ws: &mut Self::Workspace<L>,
+        u: &mut L,
+    ) -> CoreResult<()> {
+        *u = self.value(x, ws)?;
+        Ok(())
+    }
 
     /// The point of the last [`Potential::force`] evaluation in the user's coordinates, where
     /// the potential made them on the way: a wave equation's grid values u = S x of one

@@ -149,11 +149,11 @@ pub fn evaluate<L: Real, Sh: Shape, P: Potential>(
     inline: bool,
 ) -> CoreResult<()> {
     if phi_is_identity {
-        st.u = if inline {
-            pot.inline_force(st.q.get(), st.f.get_mut(), with_value)
+        if inline {
+            st.u = pot.inline_force(st.q.get(), st.f.get_mut(), with_value);
         } else {
-            pot.force(st.q.get(), st.f.get_mut(), with_value, ws)?
-        };
+            pot.force_into(st.q.get(), st.f.get_mut(), with_value, ws, &mut st.u)?;
+        }
         return Ok(());
     }
     let (q, x, phi) = (st.q.get(), st.x.get_mut(), k.phi.get());
@@ -170,7 +170,7 @@ pub fn evaluate<L: Real, Sh: Shape, P: Potential>(
     } else {
         pot.force(st.x.get(), st.f.get_mut(), false, ws)?;
         if with_value {
-            st.u = pot.value(st.q.get(), ws)?;
+            pot.value_into(st.q.get(), ws, &mut st.u)?;
         }
     }
     Ok(())

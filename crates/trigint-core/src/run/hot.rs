@@ -62,7 +62,12 @@ impl<'a, L: Real, Sh: Shape, P: Potential> Bundle<'a, L, Sh, P> {
         n: u64,
         e: u64,
     ) -> CoreResult<Option<u64>> {
-        if TWO_STEP && Sh::FIXED && P::INLINE_FORCE && L::LANES > 1 && self.has_lane_loop() {
+        if TWO_STEP
+            && Sh::FIXED
+            && (P::INLINE_FORCE || P::ROW_FORCE)
+            && L::LANES > 1
+            && self.has_lane_loop()
+        {
             return self.lane_loop::<TRACK, PLAIN, PHI>(n, e);
         }
         // The inline force where there is one (compile-time shapes only: their state lives in

@@ -424,9 +424,21 @@ impl Program {
     }
 
     /// One trajectory or one bundle through machine code `which` (0: U and g, 1: g, 2: U),
-    /// reading x and writing the force in place; None when there is none for these numbers.
+    /// reading x and writing the force in place and U into `u` (left alone by code 1); None
+    /// when there is no machine code for these numbers.
+    ///
+    /// U is written where the caller keeps it, not returned: a bundle's U handed back through
+    /// the `Option` and `Result` around it was four 64-byte copies, each read back at once, and
+    /// the first read (one 64-byte load of what the code stored 16 bytes at a time) cannot be
+    /// forwarded from the stores: half the lane loop's samples for FPU m = 3 as an expression.
     #[inline(always)]
-    fn eval_native<L: Real>(&self, which: usize, x: &[L], force: Option<&mut [L]>) -> Option<L> {
+    fn eval_native<L: Real>(
+        &self,
+        which: usize,
+        x: &[L],
+        force: Option<&mut [L]>,
+        u: &mut L,
+    ) -> Option<()> {
         let xf = L::as_f64s(&x[..self.n])?;
         let mut none: [f64; 0] = [];
         let gf = match force {
@@ -434,19 +446,16 @@ impl Program {
             None => &mut none[..],
         };
         if L::LANES == 1 {
-            let mut u = 0.0;
-            self.machine_code()?[which].call(xf, gf, &mut u);
-            return Some(L::splat(u));
+            let mut one = 0.0;
+            self.machine_code()?[which].call(xf, gf, &mut one);
+            if which != 1 {
+                *u = L::splat(one);
+            }
+            return Some(());
         }
         let f = &self.bundle_code(L::LANES)?[which];
-        let mut u = L::zero();
-        f.call_pairs(
-            xf,
-            gf,
-            L::as_f64s_mut(std::slice::from_mut(&mut u))?,
-            L::LANES,
-        );
-        Some(u)
+        f.call_pairs(xf, gf, L::as_f64s_mut(std::slice::from_mut(u))?, L::LANES);
+        Some(())
     }
 
     #[inline(always)]
@@ -468,6 +477,8 @@ impl Potential for Program {
     // loop around it is no faster than the AVX2 one (FPU m = 3 as an expression: one trajectory
     // 18.9 against 18.7 ns, 1000 of them 14.7 against 14.1 ns per trajectory-step).
     const AVX512: bool = false;
+    // `force` and `value` return Ok on every path (machine code or the interpreter).
+    const ROW_FORCE: bool = true;
 
     fn dim(&self) -> usize {
         self.n
@@ -489,14 +500,36 @@ impl Potential for Program {
         with_value: bool,
         ws: &mut ProgramWorkspace<L>,
     ) -> CoreResult<L> {
-        if let Some(u) = self.eval_native(if with_value { 0 } else { 1 }, x, Some(force)) {
-            return Ok(u);
-        }
-        Ok(if with_value {
-            Self::eval(&self.full, &mut ws.full, x, Some(force))
+        let mut u = L::zero();
+        self.force_into(x, force, with_value, ws, &mut u)?;
+        Ok(u)
+    }
+
+    #[inline(always)]
+    fn force_into<L: Real>(
+        &self,
+        x: &[L],
+        force: &mut [L],
+        with_value: bool,
+        ws: &mut ProgramWorkspace<L>,
+        u: &mut L,
+    ) -> CoreResult<()> {
+        if with_value {
+            if self.eval_native(0, x, Some(&mut *force), u).is_none() {
+                *u = Self::eval(&self.full, &mut ws.full, x, Some(force));
+            }
         } else {
-            Self::eval(&self.force_only, &mut ws.force_only, x, Some(force))
-        })
+            // (the force-only code computes no U: zero, on both paths)
+            let mut unused = L::zero();
+            if self
+                .eval_native(1, x, Some(&mut *force), &mut unused)
+                .is_none()
+            {
+                Self::eval(&self.force_only, &mut ws.force_only, x, Some(force));
+            }
+            *u = L::zero();
+        }
+        Ok(())
     }
 
     fn force_derivative(
@@ -513,7 +546,10 @@ impl Potential for Program {
         input[..n].copy_from_slice(&x[..n]);
         input[n..].copy_from_slice(&v[..n]);
         let both = Scratch::sized(&mut s.b, 2 * n);
-        if t.eval_native(1, input, Some(&mut *both)).is_none() {
+        let mut unused = 0.0;
+        if t.eval_native(1, input, Some(&mut *both), &mut unused)
+            .is_none()
+        {
             if s.registers.is_empty() {
                 s.registers.push(vec![t.force_only.registers()]);
             }
@@ -530,9 +566,21 @@ impl Potential for Program {
 
     #[inline(always)]
     fn value<L: Real>(&self, x: &[L], ws: &mut ProgramWorkspace<L>) -> CoreResult<L> {
-        if let Some(u) = self.eval_native(2, x, None) {
-            return Ok(u);
+        let mut u = L::zero();
+        self.value_into(x, ws, &mut u)?;
+        Ok(u)
+    }
+
+    #[inline(always)]
+    fn value_into<L: Real>(
+        &self,
+        x: &[L],
+        ws: &mut ProgramWorkspace<L>,
+        u: &mut L,
+    ) -> CoreResult<()> {
+        if self.eval_native(2, x, None, u).is_none() {
+            *u = Self::eval(&self.value_only, &mut ws.value_only, x, None);
         }
-        Ok(Self::eval(&self.value_only, &mut ws.value_only, x, None))
+        Ok(())
     }
 }
