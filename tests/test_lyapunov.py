@@ -255,7 +255,8 @@ def test_ensemble_lanes_are_lyapunov_alone_at_any_thread_count():
 def test_ensemble_exponents_of_a_compiled_potential_and_of_a_lane_that_blows_up():
     """A compiled potential runs each trajectory's tangent alone, the FPU chain in bundles of
     lanes: either way each trajectory's exponents are those of lyapunov() on it. A lane that
-    blows up leaves NaN, its neighbours in the bundle their own numbers."""
+    blows up has the exponents of its last re-orthonormalization, as lyapunov() alone gives
+    them whatever its samples' spacing; its neighbours in the bundle keep their own numbers."""
     problem = toda()
     q0, p0 = np.array([0.5, 0.2, -0.1]), np.array([0.3, 0.0, 0.1])
     ds = ti.ensemble(problem, "B", q0, p0, h=np.array([0.05, 0.07]), t_end=20.0, lyapunov=1)
@@ -267,9 +268,25 @@ def test_ensemble_exponents_of_a_compiled_potential_and_of_a_lane_that_blows_up(
     q0[4] = 6.0
     with pytest.warns(RuntimeWarning):
         ds = ti.ensemble(fpu, "B", q0, np.tile(p, (9, 1)), h=0.03, t_end=30.0, lyapunov=1)
-    assert np.isnan(ds.lyapunov.values[4, 0]) and np.isnan(ds.megno.values[4])
     alone = ti.lyapunov(fpu, "B", q, p, h=0.03, t_end=30.0)
     assert np.all(ds.lyapunov.values[[0, 3, 5, 8], 0] == alone.exponents[0])
+    with pytest.warns(RuntimeWarning, match="not finite"):
+        dense = ti.lyapunov(fpu, "B", q0[4], p, h=0.03, t_end=30.0, sample_every=16)
+    with pytest.warns(RuntimeWarning, match="not finite"):
+        sparse = ti.lyapunov(fpu, "B", q0[4], p, h=0.03, t_end=30.0, sample_every=96)
+    last = int(dense.history.step.values[-1])
+    assert dense.status == "blow-up" and last > 96 and last % 96 != 0
+    # the last sample is at the last re-orthonormalization before the blow-up, however sparse
+    assert sparse.history.step.values[-1] == dense.history.step.values[-1]
+    assert np.isfinite(dense.exponents[0]) and np.array_equal(sparse.exponents, dense.exponents)
+    assert ds.lyapunov.values[4, 0] == dense.exponents[0]
+    assert ds.megno.values[4] == dense.megno.values[-1]
+    # two exponents: each trajectory's tangent on its own (sampled at its last step only)
+    with pytest.warns(RuntimeWarning):
+        two = ti.ensemble(fpu, "B", q0[3:6], np.tile(p, (3, 1)), h=0.03, t_end=30.0, lyapunov=2)
+    with pytest.warns(RuntimeWarning, match="not finite"):
+        both = ti.lyapunov(fpu, "B", q0[4], p, h=0.03, t_end=30.0, n_exponents=2)
+    assert np.all(np.isfinite(both.exponents)) and np.array_equal(two.lyapunov.values[1], both.exponents)
 
 
 def test_ensemble_exponents_on_a_client_and_in_a_store(tmp_path):

@@ -49,9 +49,11 @@ class LyapunovResult:
     exponents : ndarray of shape (K,)
         The finite-time spectrum at the last step, λ_j = (1/t) Σ ln R_jj of the j-th vector
         (Benettin's order, which is largest first in the limit; at finite t neighbours may
-        still be out of order).
+        still be out of order). After a blow-up, those at the last re-orthonormalization
+        before it (NaN if there was none), whatever `sample_every`.
     history : xarray.DataArray
-        The spectrum over time, dims ``(t, exponent)``, sampled at re-orthonormalizations.
+        The spectrum over time, dims ``(t, exponent)``, sampled at re-orthonormalizations
+        (every `sample_every` steps, and after a blow-up at the last one before it).
     megno : xarray.DataArray
         The time-averaged MEGNO ⟨Y⟩ of the leading vector over ``t``.
     t_end : float
@@ -62,7 +64,9 @@ class LyapunovResult:
         What happened, in words (empty when completed).
     q, p : ndarray
         The trajectory's state at step `steps_done` (the state ``integrate`` reaches, bit for
-        bit); after a blow-up, the last finite state (the step where ``integrate`` stops too).
+        bit); after a blow-up, the last state whose q and p are finite. ``integrate`` asks its
+        energies to be finite too, so where H overflows first (|p| beyond about 1e154) it stops
+        one step earlier.
     dq, dp : ndarray of shape (K, n)
         The orthonormal deviation vectors at the last step.
     second_derivatives : str

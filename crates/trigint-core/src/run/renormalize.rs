@@ -134,6 +134,8 @@ pub(crate) struct Renormalizer<'m> {
     sums: Vec<f64>,
     logs: Vec<f64>,
     megno: Megno,
+    /// The step of the latest re-orthonormalization (0: none yet).
+    last: u64,
     pub(crate) out: TangentOutput,
 }
 
@@ -154,6 +156,7 @@ impl<'m> Renormalizer<'m> {
             sums: vec![0.0; k],
             logs: vec![0.0; k],
             megno: Megno::default(),
+            last: 0,
             out: TangentOutput::empty(),
         }
     }
@@ -236,6 +239,7 @@ impl<'m> Renormalizer<'m> {
             *s += l;
         }
         self.megno.add(step as f64 * self.h, logs[0]);
+        self.last = step;
         // (The first test spares an integer division where samples are rare: a batch's.)
         let every = self.request.sample_every;
         if step == self.request.n_steps || (step >= every && step.is_multiple_of(every)) {
@@ -246,8 +250,16 @@ impl<'m> Renormalizer<'m> {
         }
     }
 
-    /// Ends the run at a non-finite state found at `step`.
+    /// Ends the run at a non-finite state found at `step`, with a last sample at the latest
+    /// re-orthonormalization before it (where the numbers stop), unless that was sampled: the
+    /// exponents of a run that blew up are those there, whatever its samples' spacing (an
+    /// ensemble's lanes, sampled at their last step only, give the same).
     pub(crate) fn blow_up(&mut self, step: u64, what: &str) {
+        if self.last > 0 && self.out.steps.last() != Some(&self.last) {
+            self.out.steps.push(self.last);
+            self.out.log_growth.push(self.sums.clone());
+            self.out.megno.push(self.megno.mean());
+        }
         self.out.status = Status::BlowUp;
         self.out.message = format!(
             "{what} is not finite at step {step} (t = {}): stopped, keeping the samples before it",
@@ -271,6 +283,8 @@ pub(crate) struct LaneGrowth<L> {
     weighted: L,
     integral: L,
     last_t: L,
+    /// Each lane's latest re-orthonormalization (0: none yet).
+    last_step: Vec<u64>,
 }
 
 impl<L: Real> LaneGrowth<L> {
@@ -282,6 +296,7 @@ impl<L: Real> LaneGrowth<L> {
             weighted: L::zero(),
             integral: L::zero(),
             last_t: L::zero(),
+            last_step: vec![0; L::LANES],
         }
     }
 
@@ -294,6 +309,9 @@ impl<L: Real> LaneGrowth<L> {
         let y = L::splat(2.0) * self.weighted / t;
         self.integral += y * (t - self.last_t);
         self.last_t = t;
+        for l in due.iter() {
+            self.last_step[l] = step;
+        }
         if due != LaneSet::first(L::LANES) {
             let new = [
                 &mut self.sums,
@@ -306,6 +324,15 @@ impl<L: Real> LaneGrowth<L> {
                     x.set_lane(l, was.lane(l));
                 }
             }
+        }
+    }
+
+    /// Lane l's sample at its latest re-orthonormalization, for a lane that blew up (as
+    /// [`Renormalizer::blow_up`] takes it); none where there was none.
+    pub(crate) fn sample_last(&self, l: usize, out: &mut TangentOutput) {
+        let step = self.last_step[l];
+        if step > 0 && out.steps.last() != Some(&step) {
+            self.sample(l, step, out);
         }
     }
 

@@ -521,6 +521,9 @@ impl<L: Real, Sh: Shape, P: Potential> Stepper for LaneTangent<'_, L, Sh, P> {
         for l in self.active.iter() {
             if bad.contains(l) {
                 // q_{i+1} or δq_{i+1} is not finite, so neither is p_i or δp_i: stop at step i.
+                if in_loop {
+                    self.growth.sample_last(l, &mut self.books[l].out);
+                }
                 self.books[l].blow_up(i, "the trajectory or a deviation");
                 self.active.remove(l);
                 continue;
