@@ -331,3 +331,133 @@ def test_an_ensemble_at_one_resonant_step_size_warns_as_integrate_does():
         warnings.simplefilter("error")
         ti.ensemble(PROB, "B", Q, P, h=H, n_steps=50)
         ti.ensemble(PROB, "B", Q0, P0, h=[H, resonant], n_steps=50)
+
+
+@pytest.mark.parametrize(("q0", "p0", "error", "message"), [
+    (1.0, P0, ValueError,
+     r"^q0: expected an array of 6 floats \(one value per coordinate\), got a single number 1\.0$"),
+    (np.float64(2.5), P0, ValueError, r"got a single number 2\.5$"),
+    (None, P0, TypeError, r"^q0: expected an array of 6 floats \(one value per coordinate\), got None$"),
+    (Q0, None, TypeError, r"^p0: expected an array of 6 floats \(one value per coordinate\), got None$"),
+])
+def test_a_number_or_none_for_a_state_is_named_as_such(q0, p0, error, message):
+    """Not "expected shape (6,), got (1,)": what was given, as given."""
+    with pytest.raises(error, match=message):
+        ti.integrate(PROB, "B", q0, p0, h=H, n_steps=2)
+    with pytest.raises(error, match=message):
+        ti.ensemble(PROB, "B", q0, p0, h=H, n_steps=2, progress=False)
+    one = ti.OscillatoryProblem([50.0], ti.PolynomialPotential([0.0], [[0]]))
+    assert ti.integrate(one, "B", 0.1, 0.0, h=0.01, n_steps=2).q[0].tolist() == [0.1]  # one coordinate: a number
+
+
+def test_the_inverse_frequency_map_states_its_range_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"^xi_tilde: h\*omega_tilde must be in \[0, pi\) for the IMEX method "
+                                             r"\(alpha = 1/4\), which reaches pi only as h\*omega -> inf; got "
+                                             r"3\.141592653589793$"):
+            ti.IMEX().h_omega_from_modified(np.pi)
+        with pytest.raises(ValueError, match=r"must be in \[0, pi\] for the alpha-method with alpha = 0\.1, which "
+                                             r"reaches pi at the step-size limit h\*omega = 2\.58198889747; got 3\.2$"):
+            ti.AlphaMethod(0.1).h_omega_from_modified(3.2)
+        with pytest.raises(ValueError, match=r"must be in \[0, 2 arcsin\(1/\(2 sqrt\(alpha\)\)\) = 1\.0471975512\) "
+                                             r"for the alpha-method with alpha = 1, .*; got 1\.2$"):
+            ti.AlphaMethod(1.0).h_omega_from_modified(1.2)
+        with pytest.raises(ValueError, match=r"got -0\.5$"):
+            ti.IMEX().h_omega_from_modified(-0.5)
+        xi = np.array([0.0, 0.5, 2.0, 100.0])
+        np.testing.assert_allclose(ti.IMEX().h_omega_from_modified(ti.IMEX().modified_h_omega(xi)), xi, rtol=1e-12)
+
+
+def test_a_filter_that_is_not_finite_is_reported_in_plain_numbers():
+    method = ti.Trigonometric(psi=lambda x: np.where(x > 1.0, np.nan, 1.0))
+    with pytest.raises(ValueError, match=r"^psi: not finite at xi = 2\.5 \(value nan\)$"):
+        method.coefficients(0.05, np.array([10.0, 50.0]))
+    inverse = ti.ModifiedTrigonometric(lambda x: x, omega_tilde_inverse=lambda y: 1.0 / (y - 1.0))
+    with pytest.raises(ValueError, match=r"^omega_tilde_inverse: not finite at xi_tilde = 1\.0 \(value inf\)$"):
+        with np.errstate(divide="ignore"):
+            inverse.h_omega_from_modified([0.5, 1.0])
+
+
+def test_the_solution_documents_every_energy_it_holds():
+    sol = ti.integrate(PROB, "B", Q0, P0, h=H, n_steps=4)
+    doc = " ".join(ti.Solution.__doc__.split())
+    for name in sol.energies.data_vars:
+        assert f"``{name}``" in doc or (name.startswith("oscillatory_") and "``oscillatory_1``" in doc), name
+    assert "kinetic" in ti.Solution.deviation.__doc__
+    np.testing.assert_allclose(sol.deviation("kinetic"), sol.energies["kinetic"] - sol.initial_energies["kinetic"])
+
+
+@pytest.fixture(scope="module")
+def plot_runs():
+    """A run, an ensemble with samples and one without, and a scan, for the plotting helpers."""
+    sol = ti.integrate(PROB, "B", Q0, P0, h=H, t_end=5.0, save_every=10)
+    ds = ti.ensemble(PROB, "B", Q0, P0, h=[H, 0.8 * H], t_end=5.0, save_every=10, progress=False)
+    bare = ti.ensemble(PROB, "B", Q0, P0, h=[H, 0.8 * H], t_end=5.0, progress=False)
+    scan = ti.scan(PROB, "B", Q0, P0, h_omega=[1.0, 2.0], t_end=5.0, progress=False)
+    return sol, ds, bare, scan
+
+
+def test_plot_deviation_needs_one_label_per_solution(plot_runs):
+    from trigint.plotting import _pyplot, plot_deviation
+
+    sol = plot_runs[0]
+    with pytest.raises(ValueError, match=r"^labels: 1 label\(s\) for 2 solutions; give one per solution$"):
+        plot_deviation([sol, sol], labels=["a"])
+    with pytest.raises(TypeError, match=r"^labels: expected a list of strings, one per solution$"):
+        plot_deviation(sol, labels=[1])
+    ax = plot_deviation(sol, labels="one run")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["one run"]
+    _pyplot().close(ax.figure)
+
+
+def test_plot_deviation_draws_an_ensembles_samples_one_curve_per_trajectory(plot_runs):
+    from trigint.plotting import _pyplot, plot_deviation
+
+    sol, ds = plot_runs[0], plot_runs[1]
+    ax = plot_deviation(ds, labels=["h", "0.8 h"])
+    first, second = ax.lines[:2]
+    np.testing.assert_array_equal(first.get_xdata(), sol.t)  # trajectory 0 is sol
+    np.testing.assert_allclose(first.get_ydata(), sol.deviation("oscillatory"), rtol=0, atol=1e-15)
+    assert np.all(np.isfinite(second.get_ydata())) and second.get_xdata()[-1] == pytest.approx(5.0, abs=H)
+    _pyplot().close(ax.figure)
+    with pytest.raises(KeyError, match=r"energy: unknown name 'oscilatory'; valid: total, oscillatory, "):
+        plot_deviation(ds, "oscilatory")
+
+
+def test_what_the_plotting_helpers_cannot_draw_they_say_what_they_can(plot_runs):
+    from trigint.plotting import figure, plot_deviation
+
+    sol, ds, bare, scan = plot_runs
+    accepted = (r"expected a Solution \(from ti\.integrate\), a list of them, or the Dataset of ti\.ensemble run "
+                r"with save_every")
+    with pytest.raises(TypeError, match=f"^solutions: {accepted}; this Dataset has no energies over time"):
+        plot_deviation(bare)
+    with pytest.raises(TypeError, match=f"^solutions: {accepted}, got an xarray DataArray"):
+        plot_deviation(scan)
+    with pytest.raises(TypeError, match=f"^solutions: {accepted}; item 1 is int$"):
+        plot_deviation([sol, 3])
+    with pytest.raises(TypeError, match=r"^ds: expected an experiment's Dataset, from trigint\.experiments\.run, "
+                                        r"got Solution; a run's energies are drawn by plot_deviation$"):
+        figure(sol)
+    with pytest.raises(TypeError, match=r"got a Dataset without a figure kind"):
+        figure(ds)
+
+
+def test_a_scan_through_an_exact_multiple_of_pi_names_the_step_size_and_advice_it_can_take():
+    """At hω = kπ the two-step form is undefined: the scan says which step size, and its advice
+    does not send the user to a `form=` that scan() does not have."""
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    with pytest.raises(ValueError, match=r"trajectory 5 \(h = .*is 1\*pi") as err:
+        ti.scan(prob, "B", q0, p0, h_omega=np.pi * np.linspace(0.5, 1.5, 11), t_end=1.0)
+    assert "integrate(..., form='one-step')" in str(err.value) and "scan()" in str(err.value)
+
+
+def test_a_scans_blow_up_warning_points_at_the_users_line():
+    """scan() calls ensemble(): the warning names the caller's file, not the package's."""
+    prob = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    with pytest.warns(RuntimeWarning, match="blew up") as caught:
+        ti.scan(prob, "B", q0, p0, h_omega=[1.0, 3.138190955], t_end=300.0)
+    assert [w.filename for w in caught if "blew up" in str(w.message)] == [__file__]

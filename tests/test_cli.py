@@ -9,6 +9,7 @@ import sys
 import tomllib
 
 import numpy as np
+import pytest
 
 import trigint as ti
 from trigint import _progress, experiments
@@ -137,3 +138,43 @@ def test_the_theory_page_shows_what_trigint_resonance_prints():
     command, *shown = block.splitlines()
     out = run_cli(*shlex.split(command.removeprefix("$ "))[1:])
     assert out.returncode == 0 and out.stdout.splitlines() == shown
+
+
+def test_bad_numbers_are_reported_under_the_flag_that_was_typed(tmp_path, capsys):
+    """Each refused value names its flag and what it allows, before any work: no Python
+    exception names and no value the user did not type (h = (h*omega)/omega)."""
+    from trigint.cli import main
+
+    out = ["--out", str(tmp_path)]
+    cases = {
+        ("fpu", "--h-omega", "0"): "--h-omega: must be finite and > 0, got 0",
+        ("fpu", "--h-omega", "nan"): "--h-omega: must be finite and > 0, got nan",
+        ("fpu", "--h-omega", "-1"): "--h-omega: must be finite and > 0, got -1",
+        ("fpu", "--omega", "0"): "--omega: must be finite and > 0, got 0",
+        ("fpu", "--t-end", "nan"): "--t-end: must be finite and > 0, got nan",
+        ("fpu", "--m", "0"): "--m: the number of stiff springs must be a whole number >= 1, got 0",
+        ("fpu", "--h-omega", "1e300", "--omega", "1e-300"): "--h-omega, --omega: the step size h = 1e+300/1e-300 "
+                                                            "overflows in double precision",
+        ("lyapunov", "--exponents", "0"): "--exponents: how many exponents, a whole number from 1 to 4m = 12, got 0",
+        ("lyapunov", "--m", "2", "--exponents", "9"): "--exponents: how many exponents, a whole number from 1 to "
+                                                      "4m = 8, got 9",
+        ("reproduce", "fig5", "--seed", "-1"): "--seed: 0 (the paper's initial values) or a realization set s "
+                                               "from 1 to 1,000,000, got -1",
+    }
+    for argv, message in cases.items():
+        assert main([*argv, *out]) == 2, argv
+        err = capsys.readouterr().err
+        assert err == f"trigint: error: {message}\n", (argv, err)
+    # too many steps for a double: the library's count of allowed steps, not an OverflowError
+    assert main(["fpu", "--t-end", "1e308", *out]) == 2
+    err = capsys.readouterr().err
+    assert "at most 2**53" in err and "OverflowError" not in err
+    assert not list(tmp_path.iterdir())  # nothing was run or written
+
+
+def test_reproduce_refuses_a_negative_seed():
+    with pytest.raises(ValueError, match=r"^seed: 0 \(the paper's initial values\) or a realization set s from 1 "
+                                         r"to 1,000,000, got -1$"):
+        experiments.reproduce(["fig5"], "unused", quick=True, seed=-1)
+    with pytest.raises(TypeError, match="seed: expected an integer, got 1.5"):
+        experiments.reproduce(["fig5"], "unused", quick=True, seed=1.5)

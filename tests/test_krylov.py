@@ -180,3 +180,16 @@ def test_energies_are_the_cores_and_equal_what_a_run_streams():
     np.testing.assert_allclose(np.asarray(e["oscillatory"]), quadratic, rtol=1e-13)
     np.testing.assert_allclose(np.asarray(e["slow"]), u, rtol=1e-13)
     np.testing.assert_allclose(np.asarray(e["total"]), quadratic + u, rtol=1e-13)
+
+
+def test_the_krylov_path_runs_the_one_step_form_and_has_no_modified_energy_as_the_guide_says():
+    n = 60
+    prob = chain(n, "krylov")
+    q0, p0 = initial(n)
+    kw = dict(h=0.05, n_steps=40, save_every=20)
+    one, two, default = (ti.integrate(prob, "B", q0, p0, form="one-step", **kw),
+                         ti.integrate(prob, "B", q0, p0, form="two-step", **kw), ti.integrate(prob, "B", q0, p0, **kw))
+    assert np.array_equal(one.q, two.q) and np.array_equal(one.q, default.q)
+    assert np.all(np.isnan(one.energies["modified_oscillatory"]))
+    assert np.isnan(one.max_deviation["modified_oscillatory"])
+    assert np.all(np.isfinite(one.energies["oscillatory"]))

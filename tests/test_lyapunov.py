@@ -359,3 +359,10 @@ def test_wave_deviation_on_the_grid():
     grid = ti.lyapunov(problem, "B", u0, v0, h=0.05, n_steps=64, deviation=(du, 0 * du))
     flat = ti.lyapunov(problem, "B", u0, v0, h=0.05, n_steps=64, deviation=(du.ravel(), np.zeros(du.size)))
     assert np.array_equal(grid.exponents, flat.exponents)
+
+
+def test_a_history_too_large_for_memory_is_refused_before_the_run():
+    problem = ti.problems.fpu()
+    q0, p0 = ti.problems.fpu_initial()
+    with pytest.raises(ValueError, match=r"sample_every: \d+ samples of 12 exponents would need more than"):
+        ti.lyapunov(problem, "B", q0, p0, h=0.02, n_steps=10**11, sample_every=16, n_exponents=12)

@@ -152,3 +152,20 @@ def test_the_guides_two_dimensional_example_runs_as_written():
     assert scope["Q0"].shape == (2, 64, 64) and scope["Q0"][1, 3, 5] == scope["u0"][3, 5] + 1e-8
     assert float(ds.max_deviation.sel(energy="total")[0]) == sol.max_deviation["total"]  # lane 0 is sol
     assert float(x[1, 0]) == 2 * np.pi / 64 and float(y[0, 1]) == 2 * np.pi / 64
+
+
+def test_the_guides_blocks_run_top_to_bottom_in_one_session():
+    """Each block of docs/guide.md sees the names the earlier ones left (as a reader pasting them
+    in order would): the stiffness-matrix example leaves the FPU's q0 to the scan that follows.
+    The scan runs to t = 10 instead of 10⁵."""
+    import re
+    from pathlib import Path
+
+    guide = (Path(__file__).parent.parent / "docs" / "guide.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", guide, re.S)
+    scan = next(i for i, b in enumerate(blocks) if "ti.scan(" in b)
+    scope = {}
+    for code in blocks[:scan + 1]:
+        exec(code.replace("t_end=1e5", "t_end=10.0"), scope)
+    assert scope["q0"].shape == (6,) and scope["q0_chain"].shape == (50,)
+    assert scope["s"].sizes["h_omega"] == 591 and set(scope["s"].status.values) == {"completed"}

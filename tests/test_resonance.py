@@ -208,3 +208,48 @@ def test_cli_json_and_table():
     bad = subprocess.run([sys.executable, "-m", "trigint.cli", "resonance", "--h", "-1", "--omega", "5"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "h: the step size must be finite" in bad.stderr
+
+
+@pytest.mark.parametrize("call", [
+    lambda p: ti.resonance.wave_resonances(p, 0.1),
+    lambda p: ti.resonance.cfl_number(p, 0.02),
+    lambda p: ti.resonance.energy_resonances(p, 0.02, [1.0]),
+    lambda p: ti.resonance.predicted_strata(p, [1.0]),
+    lambda p: ti.resonance.strata_resonances(p, 0.02, [1.0]),
+    lambda p: ti.resonance.combinations(p, [1.0]),
+])
+def test_the_wave_analyses_refuse_other_problems_and_point_to_analyze(call):
+    with pytest.raises(TypeError, match=r"^problem: \w+ needs a wave problem, from ti\.problems\.wave\(\.\.\.\), got "
+                                        r"OscillatoryProblem; for an ODE problem, ti\.resonance\.analyze\(h, problem\) "
+                                        r"checks the non-resonance conditions of its frequencies$"):
+        call(ti.problems.fpu())
+    with pytest.raises(TypeError, match=r"needs a wave problem, from ti\.problems\.wave\(\.\.\.\), got list$"):
+        call([50.0])
+
+
+def test_analyze_on_a_wave_problem_points_to_wave_resonances():
+    wave = ti.problems.wave(256, rho=0.5)
+    tail = (r"\. This wave problem has 129 mode frequencies: ti\.resonance\.wave_resonances\(problem, h\) checks its "
+            r"modes and the triples j = k \+ l")
+    for call in (lambda: analyze(0.02, wave), lambda: ti.resonance.gap(0.02, wave, 3),
+                 lambda: modified_frequencies(0.02, wave, 3), lambda: resonant_step_sizes(wave, (1.0, 2.0), 5)):
+        with pytest.raises(ValueError, match=r"vectors.*" + tail):
+            call()
+    with pytest.raises(ValueError, match=r"more than the limit of 5,000,000; choose a smaller N_max$"):
+        analyze(0.1, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], N_max=40)  # frequencies given: no wave to point to
+    assert analyze(0.02, ti.problems.wave(8, rho=0.5)).N >= 0  # a few modes: enumerated as usual
+
+
+def test_analyze_on_the_krylov_path_says_the_frequencies_are_not_computed():
+    import scipy.sparse as sp
+
+    n = 50
+    stiffness = 100.0 * sp.diags([2 * np.ones(n), -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1], format="csr")
+    prob = ti.OscillatoryProblem(stiffness=stiffness, potential=ti.ExpressionPotential("q0**4", ["q0"] + [
+        f"q{i}" for i in range(1, n)]), path="krylov")
+    message = (r"^omega: the resonance analysis needs the problem's frequencies, which a problem on the Krylov path "
+               r"\(path='krylov', a sparse stiffness matrix of n = 50\) never computes; give the frequencies "
+               r"themselves as omega .*scipy\.sparse\.linalg\.eigsh\), or build the problem with path='dense'$")
+    for call in (lambda: analyze(0.02, prob), lambda: ti.resonance.gap(0.02, prob, 2)):
+        with pytest.raises(ValueError, match=message):
+            call()

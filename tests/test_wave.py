@@ -287,6 +287,48 @@ def test_the_grid_potential_agrees_with_python_callables():
     assert abs(a.energies["total"][-1] - b.energies["total"][-1]) < 1e-13
 
 
+def quartic(**wrong):
+    """(V, V', V'') of V(u) = u⁴/4, with the functions named in `wrong` replaced."""
+    functions = {"V": lambda u: u**4 / 4, "V'": lambda u: u**3, "V''": lambda u: 3 * u**2, **wrong}
+    return tuple(functions.values())
+
+
+@pytest.mark.parametrize(("wrong", "message"), [
+    ({"V'": lambda u: np.ones(5)}, r"V' \(function 2 of the potential tuple\) returned an array of shape \(5,\)"),
+    ({"V": lambda u: 1.0}, r"V \(function 1 of the potential tuple\) returned a single number"),
+    ({"V": lambda u: None}, r"V \(function 1 of the potential tuple\) returned None"),
+    ({"V'": lambda u: "u**3"}, r"V' \(function 2 of the potential tuple\) returned str, not real numbers"),
+])
+def test_python_functions_that_return_the_wrong_shape_are_named(wrong, message):
+    prob = ti.problems.wave(16, rho=1.0, potential=quartic(**wrong)[:2])
+    u0, v0 = smooth_data((16,))
+    with pytest.raises((ValueError, TypeError), match=f"^potential: {message}.*; it must return one value per "
+                                                      r"grid point, an array of the shape of u, here \(1, 16\)$"):
+        ti.integrate(prob, "B", u0, v0, h=0.05, n_steps=2)
+
+
+def test_a_python_wave_potential_gives_the_tangent_map_its_second_derivative():
+    u0, v0 = smooth_data((16,))
+    pair = ti.problems.wave(16, rho=1.0, potential=quartic()[:2])
+    with pytest.raises(ValueError, match=r"^potential: the wave's potential is a pair \(V, V'\) of Python functions, "
+                                         r"which gives no second derivative .* give V'' too, "
+                                         r"potential=\(V, V', V''\), .* \(finite_differences=True\)$"):
+        ti.lyapunov(pair, "B", u0, v0, h=0.05, n_steps=10)
+    exact = ti.lyapunov(ti.problems.wave(16, rho=1.0, potential="u**4/4"), "B", u0, v0, h=0.05, n_steps=400,
+                        n_exponents=2)
+    given = ti.lyapunov(ti.problems.wave(16, rho=1.0, potential=quartic()), "B", u0, v0, h=0.05, n_steps=400,
+                        n_exponents=2)
+    differenced = ti.lyapunov(pair, "B", u0, v0, h=0.05, n_steps=400, n_exponents=2, finite_differences=True)
+    assert given.second_derivatives == "user hessian_vector"
+    np.testing.assert_allclose(given.exponents, exact.exponents, rtol=1e-10)
+    np.testing.assert_allclose(differenced.exponents, exact.exponents, rtol=1e-5)
+    bad = ti.problems.wave(16, rho=1.0, potential=quartic(**{"V''": lambda u: 3.0}))
+    with pytest.raises(ValueError, match=r"V'' \(function 3 of the potential tuple\) returned a single number"):
+        ti.lyapunov(bad, "B", u0, v0, h=0.05, n_steps=10)
+    with pytest.raises(TypeError, match=r"give a tuple \(V, V'\) or \(V, V', V''\)"):
+        ti.problems.wave(16, potential=[lambda u: u**4 / 4, lambda u: u**3])
+
+
 @pytest.mark.parametrize("shape", [(16,), (6, 4), (4, 2, 4)])
 def test_ensemble_lanes_equal_integrate_bit_for_bit(shape):
     # On grids of several axes the momentum's pairs come in runs that ride along the sweep of
@@ -392,3 +434,16 @@ def test_the_streamed_extremes_do_not_depend_on_where_the_samples_are(shape, met
     assert np.array_equal(sparse.q, every.q[::13]) and np.array_equal(sparse.p, every.p[::13])
     assert np.array_equal(sparse.energies["action"].values, every.energies["action"].values[::13])
     assert np.max(sparse.max_deviation.to_numpy()) > 0
+
+
+def test_the_deviation_of_the_momentum_and_of_every_action():
+    prob = ti.problems.wave(16, rho=1.0, potential="u**4/4")
+    x = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    sol = ti.integrate(prob, "B", 0.1 * np.sin(x) + 0.05 * np.cos(2 * x), 0.02 * np.sin(3 * x), h=0.01,
+                       n_steps=200, save_every=20)
+    action = sol.deviation("action")
+    assert action.dims == ("t", "mode") and np.all(action.values[0] == 0.0)
+    assert np.array_equal(action.values, sol.energies["action"].values - sol.energies["action"].values[0])
+    assert np.max(np.abs(action.values)) > 0  # the actions move (u**4 couples the modes)
+    momentum = sol.deviation("momentum")
+    assert momentum.dims == ("t", "axis") and np.all(momentum.values[0] == 0.0)

@@ -107,8 +107,9 @@ def lookup(name: str) -> Filter:
     return FILTERS[key]
 
 
-def evaluate(f: Callable, x: np.ndarray, what: str) -> np.ndarray:
-    """f at the points x, vectorized if f allows it, else point by point; must be real and finite."""
+def evaluate(f: Callable, x: np.ndarray, what: str, at: str = "xi") -> np.ndarray:
+    """f at the points x (named `at` in errors), vectorized if f allows it, else point by point;
+    must be real and finite."""
     try:
         y = _as_real(f(x), what)
         if y.shape != x.shape:
@@ -122,7 +123,7 @@ def evaluate(f: Callable, x: np.ndarray, what: str) -> np.ndarray:
         y = np.array(values, dtype=float).reshape(x.shape)
     if not np.all(np.isfinite(y)):
         i = int(np.flatnonzero(~np.isfinite(y))[0])
-        raise ValueError(f"{what}: not finite at xi = {x[i]!r} (value {y[i]!r})")
+        raise ValueError(f"{what}: not finite at {at} = {float(x[i])!r} (value {float(y[i])!r})")
     return y
 
 

@@ -128,7 +128,12 @@ class Recursion:
         return _exponents_at_end(out["steps"], out["log_growth"], out["megno"], rows["h"])
 
     def tangent_potential(self, problem, finite_differences: bool):
-        """A Python potential built to difference its gradient (the other kinds: None, the usual)."""
+        """A Python potential built to difference its gradient (the other kinds: None, the usual).
+        A potential that knows it has no second derivative says so in its own terms (a wave's
+        (V, V') pair: what the wave's user can give), before the run."""
+        missing = getattr(problem.potential, "no_second_derivative", None)
+        if missing is not None and not finite_differences:
+            raise ValueError(missing)
         spec = _native.potential_spec(problem.potential, _native.core_layout(problem))
         return _core.Potential({**spec, "finite_differences": True}) if finite_differences else None
 

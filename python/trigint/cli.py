@@ -3,10 +3,27 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import warnings
 from pathlib import Path
+
+SEED_MAX = 10**6  # the largest realization set, as an experiment spec's [figure] seed allows
+
+
+def _positive(flag: str, value: float) -> None:
+    """A command-line number that must be finite and > 0, reported under its flag."""
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{flag}: must be finite and > 0, got {value:g}")
+
+
+def _check_chain(args) -> None:
+    """The FPU chain's flags (--m, --omega, --t-end), checked before any work and reported as typed."""
+    if args.m < 1:
+        raise ValueError(f"--m: the number of stiff springs must be a whole number >= 1, got {args.m}")
+    _positive("--omega", args.omega)
+    _positive("--t-end", args.t_end)
 
 
 def _fpu(args) -> int:
@@ -14,11 +31,17 @@ def _fpu(args) -> int:
     import trigint as ti
     from trigint.plotting import plot_deviation, save
 
+    _check_chain(args)
+    _positive("--h-omega", args.h_omega)
     prob = ti.problems.fpu(m=args.m, omega=args.omega)
     q0, p0 = ti.problems.fpu_initial(m=args.m, omega=args.omega)
     h = args.h_omega / args.omega
+    if not 0 < h < math.inf:
+        raise ValueError(f"--h-omega, --omega: the step size h = {args.h_omega:g}/{args.omega:g} "
+                         f"{'underflows to 0' if h == 0 else 'overflows'} in double precision")
+    steps = args.t_end / h  # too many for a double: the library says how many steps are allowed
     sol = ti.integrate(prob, args.method, q0, p0, h=h, t_end=args.t_end,
-                       save_every=max(1, int(round(args.t_end / h / 4000))))
+                       save_every=max(1, int(round(steps / 4000))) if math.isfinite(steps) else 1)
     print(sol)
     title = f"FPU, m = {args.m}, ω = {args.omega:g}, hω = {args.h_omega:.6g}, method {sol.method!r}"
     for path in save(plot_deviation(sol, title=title), Path(args.out) / "fpu_oscillatory_energy"):
@@ -32,6 +55,10 @@ def _lyapunov(args) -> int:
     import trigint as ti
     from trigint.plotting import save
 
+    _check_chain(args)
+    if not 1 <= args.exponents <= 4 * args.m:
+        raise ValueError(f"--exponents: how many exponents, a whole number from 1 to 4m = {4 * args.m}, "
+                         f"got {args.exponents}")
     prob = ti.problems.fpu(m=args.m, omega=args.omega)
     q0, p0 = ti.problems.fpu_initial(m=args.m, omega=args.omega)
     if args.h_omega_range is not None:
@@ -83,6 +110,9 @@ def _resonance(args) -> int:
 def _reproduce(args) -> int:
     from trigint import experiments
 
+    if not 0 <= args.seed <= SEED_MAX:
+        raise ValueError(f"--seed: 0 (the paper's initial values) or a realization set s from 1 to "
+                         f"{SEED_MAX:,}, got {args.seed}")
     figures = experiments.FIGURES if "all" in args.figures else args.figures
     unknown = [f for f in figures if f not in experiments.FIGURES]
     if unknown:
@@ -207,8 +237,8 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--out", default="reproduction", help="output folder")
     rp.add_argument("--quick", action="store_true", help="a reduced run that finishes in seconds")
     rp.add_argument("--seed", type=int, default=0,
-                    help="0: the paper's initial values; s >= 1: another realization set (y0,1(0) + s*1e-10), "
-                         "to check that no claim passes by luck")
+                    help="0: the paper's initial values; s from 1 to 1,000,000: another realization set "
+                         "(y0,1(0) + s*1e-10), to check that no claim passes by luck")
     rp.set_defaults(run=_reproduce)
 
     ru = sub.add_parser("run", parents=[common], formatter_class=fmt,

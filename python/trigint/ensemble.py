@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import _check, _outputs, _progress
+from . import _check, _outputs, _progress, _stacklevel
 from ._batch import core_arguments, prepare
 from ._method_names import resolve_method
 from ._native import METHOD_ROWS
@@ -180,11 +180,11 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         finished = int((ds.status == "completed").sum())
         warnings.warn(f"interrupted: kept {finished} of {count} finished trajectories"
                       + (f" (in {store})" if store else "") + "; the others have status 'interrupted'",
-                      RuntimeWarning, stacklevel=2)
+                      RuntimeWarning, stacklevel=_stacklevel.outside())
     blown = int((ds.status == "blow-up").sum())
     if blown:
         warnings.warn(f"{blown} of {count} trajectories blew up (status 'blow-up'); their numbers stop at "
-                      "the last finite step", RuntimeWarning, stacklevel=2)
+                      "the last finite step", RuntimeWarning, stacklevel=_stacklevel.outside())
     return ds
 
 

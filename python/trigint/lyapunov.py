@@ -28,10 +28,23 @@ import numpy as np
 from . import _check
 from ._deviation import RENORMALIZE_EVERY, default_deviation
 from ._method_names import resolve_method
-from .integrate import checked_state, method_coefficients, positive_int, progress_callback, resolve_steps
+from .integrate import (
+    MAX_SAMPLE_BYTES,
+    checked_state,
+    method_coefficients,
+    positive_int,
+    progress_callback,
+    resolve_steps,
+)
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 from .saveat import check_steps
+
+
+def history_bytes(samples: int, k: int) -> int:
+    """Memory of a history of `samples` samples: each its step, Σ ln R_jj of k vectors (a vector
+    of its own in the core) and the MEGNO, in the core and again in the result."""
+    return samples * 2 * (8 * (k + 2) + 48)
 
 #: renormalize every this many steps unless told (see :mod:`trigint._deviation`)
 DEFAULT_RENORMALIZE_EVERY = RENORMALIZE_EVERY
@@ -212,6 +225,12 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
     if sample_every % renormalize_every:
         raise ValueError(f"sample_every: must be a multiple of renormalize_every = {renormalize_every}, "
                          f"got {sample_every}")
+    samples = n_steps // sample_every + 2  # and the last step, and a blow-up's last re-orthonormalization
+    if history_bytes(samples, k) > MAX_SAMPLE_BYTES:
+        raise ValueError(
+            f"sample_every: {samples} samples of {k} exponents would need more than "
+            f"{MAX_SAMPLE_BYTES / 2**30:.3g} GiB (a quarter of this machine's memory, at most 8 GiB); "
+            "increase sample_every")
     q0 = checked_state(problem.as_state(q0, "q0"), "q0", n)
     p0 = checked_state(problem.as_state(p0, "p0"), "p0", n)
     dq0, dp0 = _deviations(problem, deviation, k)

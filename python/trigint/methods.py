@@ -198,7 +198,8 @@ class Method(ABC):
                          "vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples of pi)")
                 advice = f"Choose h with h*omega[{j}] away from multiples of pi"
                 if form != "one-step" and self._at_chi_zero(np.array([xi[j]])) is not None:
-                    advice += " (or use form='one-step', which needs no division by chi)"
+                    advice += (" (or run it alone with integrate(..., form='one-step'), which needs no division by "
+                               "chi; ensemble(), scan() and lyapunov() run the two-step form)")
             raise ValueError(
                 f"h: {cause}, so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. {advice}."
             )
@@ -399,11 +400,12 @@ class ModifiedTrigonometric(Method):
         Parameters
         ----------
         xi_tilde : float or array
-            Values of hω̃ ≥ 0 in the range of :meth:`modified_h_omega`.
+            Values of hω̃ ≥ 0 in the range of :meth:`modified_h_omega`: for the α-methods
+            [0, π) (IMEX, α = ¼), [0, π] for α < ¼, [0, 2 arcsin(1/(2√α))) for α > ¼.
         """
         y = np.asarray(xi_tilde, dtype=float)
         if self._inverse is not None:
-            return evaluate(self._inverse, y.reshape(-1), "omega_tilde_inverse").reshape(y.shape)
+            return evaluate(self._inverse, y.reshape(-1), "omega_tilde_inverse", at="xi_tilde").reshape(y.shape)
         return _invert_increasing(self.modified_h_omega, y)
 
     def _filters(self, xi: np.ndarray, h: float) -> dict:
@@ -462,8 +464,25 @@ class AlphaMethod(ModifiedTrigonometric):
         return 2.0 * np.arcsin(s)
 
     def _xi_from_tilde(self, xt):
-        s = np.sin(0.5 * np.asarray(xt, dtype=float))
-        return 2.0 * s / np.sqrt(1.0 - 4.0 * self.alpha * s**2)
+        xt = np.asarray(xt, dtype=float)
+        # the range of ξ ↦ ξ̃: [0, π] for α < ¼ (π at the step-size limit), [0, π) for α = ¼ (π as
+        # ξ → ∞), [0, 2 arcsin(1/(2√α))) for α > ¼
+        closed = self.alpha < 0.25
+        top = np.pi if self.alpha <= 0.25 else 2.0 * float(np.arcsin(0.5 / np.sqrt(self.alpha)))
+        inside = (xt >= 0) & ((xt <= top) if closed else (xt < top))
+        if not np.all(inside):
+            got = float(xt.reshape(-1)[np.flatnonzero(~inside.reshape(-1))[0]])
+            bound = ("pi]" if closed else "pi)" if self.alpha == 0.25 else
+                     f"2 arcsin(1/(2 sqrt(alpha))) = {top:.12g})")
+            where = (f"reaches pi at the step-size limit h*omega = {self.h_omega_limit:.12g}" if closed else
+                     "reaches pi only as h*omega -> inf" if self.alpha == 0.25 else
+                     "approaches the bound as h*omega -> inf")
+            who = ("the IMEX method (alpha = 1/4)" if self.alpha == 0.25 else
+                   f"the alpha-method with alpha = {self.alpha:g}")
+            raise ValueError(f"xi_tilde: h*omega_tilde must be in [0, {bound} for {who}, which {where}; got {got!r}")
+        s = np.sin(0.5 * xt)
+        with np.errstate(divide="ignore", invalid="ignore"):  # rounding at the bound: evaluate() says so
+            return 2.0 * s / np.sqrt(1.0 - 4.0 * self.alpha * s**2)
 
     def _limit_message(self, xi_max: float) -> str:
         return (

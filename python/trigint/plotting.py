@@ -31,14 +31,15 @@ def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=No
 
     Parameters
     ----------
-    solutions : Solution or list of Solution
-        The runs to plot.
+    solutions : Solution, list of Solution or xarray.Dataset
+        The runs to plot: solutions from :func:`trigint.integrate`, or the Dataset of
+        :func:`trigint.ensemble` run with ``save_every`` (one curve per trajectory).
     energy : str
-        The energy (a name of ``Solution.energies``).
+        The energy (a name of ``Solution.energies``, or of the ensemble's ``energy``).
     ax : matplotlib Axes, optional
         Where to draw (default: a new figure).
-    labels : list of str, optional
-        One legend label per solution.
+    labels : str or list of str, optional
+        One legend label per solution (per trajectory of an ensemble).
     title : str, optional
         The axes' title.
 
@@ -53,24 +54,75 @@ def plot_deviation(solutions, energy: str = "oscillatory", *, ax=None, labels=No
     >>> prob = ti.problems.fpu(); q0, p0 = ti.problems.fpu_initial()
     >>> sol = ti.integrate(prob, "B", q0, p0, h=2*np.pi/3/50, t_end=30.0)
     >>> ax = plot_deviation(sol)
+    >>> ds = ti.ensemble(prob, "B", q0, p0, h=[0.04, 0.05], t_end=30.0, save_every=10, progress=False)
+    >>> ax = plot_deviation(ds, labels=["h = 0.04", "h = 0.05"])
     """
+    curves = _deviation_curves(solutions, energy)
+    if labels is not None:
+        labels = [labels] if isinstance(labels, str) else list(labels) if isinstance(labels, list | tuple) else None
+        if labels is None or not all(isinstance(x, str) for x in labels):
+            raise TypeError("labels: expected a list of strings, one per solution")
+        if len(labels) != len(curves):
+            raise ValueError(f"labels: {len(labels)} label(s) for {len(curves)} "
+                             f"{'solution' if len(curves) == 1 else 'solutions'}; give one per solution")
     plt = _pyplot()
-    solutions = list(solutions) if isinstance(solutions, list | tuple) else [solutions]
     if ax is None:
         _, ax = plt.subplots(figsize=(7, 2.8), constrained_layout=True)
-    for i, sol in enumerate(solutions):
-        dev = sol.deviation(energy)
+    for i, (t, dev) in enumerate(curves):
         style = dict(color="black", lw=0.8, zorder=3) if i == 0 else dict(color="0.6", lw=0.6)
-        ax.plot(sol.t, dev, label=labels[i] if labels else None, **style)
+        ax.plot(t, dev, label=labels[i] if labels else None, **style)
     ax.axhline(0.0, color="0.8", lw=0.5, zorder=0)
     ax.set_xlabel("t")
     ax.set_ylabel(f"{energy.replace('_', ' ')} energy: E(t) − E(0)")
-    ax.set_xlim(solutions[0].t[0], solutions[0].t[-1])
+    ax.set_xlim(min(t[0] for t, _ in curves), max(t[-1] for t, _ in curves))
     if title:
         ax.set_title(title, fontsize=10)
     if labels:
         ax.legend(fontsize=8, frameon=False)
     return ax
+
+
+#: what plot_deviation takes, for its errors
+DEVIATION_INPUTS = ("a Solution (from ti.integrate), a list of them, or the Dataset of ti.ensemble run with "
+                    "save_every")
+
+
+def _deviation_curves(solutions, energy: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(t, E(t) − E(0)) of each curve plot_deviation draws, from what it was given."""
+    from .solution import Solution
+
+    if isinstance(solutions, Solution):
+        solutions = [solutions]
+    if isinstance(solutions, list | tuple):
+        if not solutions:
+            raise ValueError("solutions: give at least one Solution")
+        for i, sol in enumerate(solutions):
+            if not isinstance(sol, Solution):
+                raise TypeError(f"solutions: expected {DEVIATION_INPUTS}; item {i} is {type(sol).__name__}")
+        return [(np.asarray(sol.t), np.asarray(sol.deviation(energy))) for sol in solutions]
+    kind = type(solutions).__name__
+    if kind == "DataArray":
+        raise TypeError(f"solutions: expected {DEVIATION_INPUTS}, got an xarray DataArray (a scan's maximal "
+                        "deviation per step size has no time axis: draw it with its own .plot())")
+    if kind != "Dataset":
+        raise TypeError(f"solutions: expected {DEVIATION_INPUTS}, got {kind}")
+    ds = solutions
+    if not {"energies", "t", "step", "initial_energies"} <= set(ds.variables) or "trajectory" not in ds.dims:
+        raise TypeError(f"solutions: expected {DEVIATION_INPUTS}; this Dataset has no energies over time (an "
+                        "ensemble run without save_every keeps only max_deviation: plot that against h, or run "
+                        "it with save_every)")
+    names = [str(n) for n in ds.energy.values]
+    if energy not in names:
+        main = [n for n in names if not n.startswith("oscillatory_")]
+        blocks = [n for n in names if n.startswith("oscillatory_")]
+        valid = main + (blocks if len(blocks) <= 2 else [f"{blocks[0]} … {blocks[-1]}"])
+        raise KeyError(f"energy: unknown name {energy!r}; valid: {', '.join(valid)}")
+    k = names.index(energy)
+    curves = []
+    for i in range(ds.sizes["trajectory"]):
+        kept = ds.step.values[i] >= 0  # samples a shorter trajectory does not fill are padding
+        curves.append((ds.t.values[i][kept], ds.energies.values[i][kept, k] - ds.initial_energies.values[i, k]))
+    return curves
 
 
 def save(fig_or_ax, path: str | Path, formats=("png", "pdf")) -> list[Path]:
@@ -134,9 +186,14 @@ def figure(ds):
     >>> type(fig).__name__
     'Figure'
     """
-    from ._figure_kinds import function
+    from ._figure_kinds import KINDS, function
 
-    return function(ds.attrs["kind"], "plot")(ds)
+    kind = getattr(ds, "attrs", {}).get("kind") if type(ds).__name__ == "Dataset" else None
+    if kind not in KINDS:
+        got = "a Dataset without a figure kind" if type(ds).__name__ == "Dataset" else type(ds).__name__
+        hint = "; a run's energies are drawn by plot_deviation" if type(ds).__name__ in ("Solution", "Dataset") else ""
+        raise TypeError(f"ds: expected an experiment's Dataset, from trigint.experiments.run, got {got}{hint}")
+    return function(kind, "plot")(ds)
 
 
 #: the page width (inches) at which the figures' fonts have their nominal size: a figure

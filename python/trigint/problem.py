@@ -165,6 +165,8 @@ class OscillatoryProblem:
 
     def as_state(self, x, name: str):
         """A state as the kernels take it: here unchanged (a wave problem flattens grid values).
+        None, and a single number where a state has several coordinates, are refused as what
+        they are (not as an array of shape (1,) that they would become).
 
         Parameters
         ----------
@@ -173,6 +175,15 @@ class OscillatoryProblem:
         name : str
             The argument's name, for error messages.
         """
+        if x is None:
+            raise TypeError(f"{name}: expected an array of {self.dim} floats (one value per coordinate), got None")
+        if self.dim != 1 and np.ndim(x) == 0 and not isinstance(x, str | bytes | dict):
+            try:
+                shown = repr(bool(x) if isinstance(x, bool | np.bool_) else float(x))
+            except (TypeError, ValueError, OverflowError):
+                shown = _check.shown(x)
+            raise ValueError(f"{name}: expected an array of {self.dim} floats (one value per coordinate), got a "
+                             f"single number {shown}")
         return x
 
     def energy_dataset(self, names: Sequence[str], energies: np.ndarray, coords: dict, attrs: dict):

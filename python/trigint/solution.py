@@ -167,8 +167,11 @@ class Solution:
     steps : array of int
         The step index of each sample.
     energies : xarray.Dataset
-        Every energy over ``t`` at the samples: ``total``, ``oscillatory``, ``slow``,
-        ``modified_oscillatory`` and ``oscillatory_1`` … ``oscillatory_ℓ``.
+        Every energy over ``t`` at the samples: ``total`` (H), ``oscillatory`` (H_ω), ``slow``
+        (½|p₀|² + U), ``modified_oscillatory`` (H*_ω; NaN on the Krylov path), ``kinetic``
+        (½|p₀|², the slow coordinates' kinetic energy; 0 on the Krylov path) and ``oscillatory_1`` …
+        ``oscillatory_ℓ`` (the I_j); for a wave problem ``momentum`` (over ``axis``) and
+        ``action`` (over ``mode``) in place of the per-block energies.
     max_deviation : Channels
         max |E(t_n) − E(0)| per energy over every step n (streamed, not from the samples); a
         read-only mapping from channel name to value.
@@ -277,11 +280,16 @@ class Solution:
         ----------
         energy : str
             A name of `energies`: ``"oscillatory"``, ``"total"``, ``"slow"``,
-            ``"modified_oscillatory"`` or ``"oscillatory_j"``.
+            ``"modified_oscillatory"``, ``"kinetic"`` or ``"oscillatory_j"``; for a wave
+            problem also ``"momentum"`` (per axis) and ``"action"`` (per mode).
         """
         if energy not in self.energies:
             raise KeyError(f"energy: unknown name {energy!r}; valid: {list(self.energies.data_vars)}")
-        return self.energies[energy] - self.initial_energies[energy]
+        e = self.energies[energy]
+        if energy in self.initial_energies:
+            return e - self.initial_energies[energy]
+        # a wave's momentum (per axis) and actions (per mode): E(0) is the sample at step 0
+        return e - e.isel(t=0)
 
     def __post_init__(self):
         for name in ("max_deviation", "initial_energies"):

@@ -16,7 +16,7 @@ self-conjugate mode has its own I_j), with û = FFT(u)/N.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -48,22 +48,64 @@ class WavePotential(Potential):
         return f"WavePotential(V(u) = {self.text}, grid {self.shape})"
 
 
-def _python_potential(v: Callable, dv: Callable, fmap) -> PythonPotential:
-    """U and ∇U = (1/N) Sᵀ V'(u) for callables V, V' on grid arrays, through the core's FFTs
-    (`fmap` the problem's ``_core.CoordinateMap``)."""
+def _python_potential(functions: tuple, fmap) -> PythonPotential:
+    """U and ∇U = (1/N) Sᵀ V'(u) for callables V, V' (and V'', for the tangent map) on grid
+    arrays, through the core's FFTs (`fmap` the problem's ``_core.CoordinateMap``)."""
+    v, dv = functions[:2]
+    d2v = functions[2] if len(functions) == 3 else None
 
     def grid_rows(q):
         return fmap.to_user(np.asarray(q, dtype=float))
 
     def value(q):
         u = grid_rows(q)
-        return np.asarray(v(u), dtype=float).reshape(u.shape).mean(axis=1)
+        return _per_point(v(u), u, "V", 0).mean(axis=1)
 
     def gradient(q):
         u = grid_rows(q)
-        return fmap.to_core(np.asarray(dv(u), dtype=float).reshape(u.shape))
+        return fmap.to_core(_per_point(dv(u), u, "V'", 1))
 
-    return PythonPotential(value, gradient, vectorized=True)
+    def hessian_vector(q, w):
+        # ∇²U(q) w = (1/N) Sᵀ (V''(u) · S w): the gradient's map, linearized
+        u = grid_rows(np.reshape(q, (1, -1)))
+        return fmap.to_core(_per_point(d2v(u), u, "V''", 2) * grid_rows(np.reshape(w, (1, -1)))).reshape(-1)
+
+    pot = WaveFunctions(value, gradient, vectorized=True, hessian_vector=None if d2v is None else hessian_vector)
+    if d2v is None:
+        pot.no_second_derivative = NO_SECOND_DERIVATIVE
+    return pot
+
+
+class WaveFunctions(PythonPotential):
+    """A wave's potential given as Python functions (V, V') or (V, V', V''): a vectorized
+    :class:`~trigint.PythonPotential` of the wave's coordinates that knows, without V'', why the
+    tangent map has no second derivative (`no_second_derivative`, said before a run needs it)."""
+
+    no_second_derivative: str | None = None
+
+
+#: why a wave potential given as (V, V') has no tangent map, and what gives it one
+NO_SECOND_DERIVATIVE = (
+    "potential: the wave's potential is a pair (V, V') of Python functions, which gives no second derivative "
+    "for the tangent map; give V'' too, potential=(V, V', V''), or V as a string or SymPy expression in u "
+    "(compiled, exact second derivatives), or allow central differences of V' (finite_differences=True)")
+
+
+def _per_point(values, u: np.ndarray, name: str, index: int) -> np.ndarray:
+    """What V, V' or V'' returned for the grid rows u: one value per grid point (an array of the
+    shape of u, or of as many values); anything else refused, naming the function."""
+    which = f"{name} (function {index + 1} of the potential tuple)"
+    expected = f"it must return one value per grid point, an array of the shape of u, here {u.shape}"
+    if values is None:
+        raise TypeError(f"potential: {which} returned None; {expected}")
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"potential: {which} returned {type(values).__name__}, not real numbers; {expected}") from None
+    if a.size != u.size:
+        got = "a single number" if a.ndim == 0 else f"an array of shape {a.shape}"
+        raise ValueError(f"potential: {which} returned {got}; {expected}")
+    return a.reshape(u.shape)
 
 
 class WaveProblem(OscillatoryProblem):
@@ -80,8 +122,8 @@ class WaveProblem(OscillatoryProblem):
         Grid points per axis (1 to 3 axes, each even).
     rho : float
         ρ ≥ 0, the mass term.
-    potential : str, sympy.Expr or (callable, callable)
-        V(u), as for :func:`trigint.problems.wave`.
+    potential : str, sympy.Expr or tuple of callables
+        V(u), as for :func:`trigint.problems.wave`: an expression, (V, V') or (V, V', V'').
     params : dict of str → float or None
         Values of the other symbols of `potential`.
     variable : str
@@ -158,11 +200,11 @@ class WaveProblem(OscillatoryProblem):
         self.action_modes = self._action_modes(modes)
 
     def _potential(self, potential, params, variable, order, fourier):
-        if isinstance(potential, tuple) and len(potential) == 2 and all(callable(f) for f in potential):
-            return _python_potential(potential[0], potential[1], fourier)
-        if callable(potential):
-            raise TypeError("potential: a Python V needs its derivative too: give (V, dV), two callables on grid "
-                            "arrays, or V as a string or SymPy expression in u")
+        if isinstance(potential, tuple) and len(potential) in (2, 3) and all(callable(f) for f in potential):
+            return _python_potential(potential, fourier)
+        if callable(potential) or isinstance(potential, tuple | list) and any(callable(f) for f in potential):
+            raise TypeError("potential: a Python V needs its derivative too: give a tuple (V, V') or (V, V', V''), "
+                            "callables on grid arrays, or V as a string or SymPy expression in u")
         (var,) = _tape.symbols([variable], "variable")
         params = _tape.parameters(params)
         expr = _tape.parse(potential, [str(var), *params], "potential")
@@ -390,9 +432,12 @@ def wave(n, rho: float = 1.0, potential="0", *, params: Mapping | None = None, v
         Grid points: an int for d = 1, a tuple of 2 or 3 for d = 2, 3; each even and ≥ 2.
     rho : float
         ρ ≥ 0 (ρ = 0: the mean of u is a slow coordinate).
-    potential : str, sympy.Expr or (callable, callable)
+    potential : str, sympy.Expr, (callable, callable) or (callable, callable, callable)
         V(u) as an expression in `variable` (and the names in `params`), compiled to machine
-        code; or a pair (V, V') of Python functions of grid arrays (slower: a call per step).
+        code; or a tuple (V, V') of Python functions of grid arrays (slower: a call per step),
+        each taking the grid values u as an array of shape (lanes, N) and returning one value
+        per grid point, an array of that shape. A third function V'' gives the exact tangent
+        map of :func:`trigint.lyapunov` (without it, ``finite_differences=True`` is needed there).
     params : dict of str → float, optional
         Values of the other symbols of `potential`.
     variable : str

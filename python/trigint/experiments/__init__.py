@@ -230,6 +230,11 @@ def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed:
     """
     from concurrent.futures import ThreadPoolExecutor
 
+    from trigint._check import integer
+
+    if not 0 <= integer(seed, "seed") <= 10**6:
+        raise ValueError(f"seed: 0 (the paper's initial values) or a realization set s from 1 to 1,000,000, "
+                         f"got {int(seed)}")
     out = Path(out)
     claims, timings = [], {}
     specs = [load(name, quick=quick) for name in figures]

@@ -49,6 +49,17 @@ class Violation:
 def frequencies(omega) -> np.ndarray:
     """The distinct non-zero frequencies ω_1 … ω_ℓ, in order of first appearance; of an
     :class:`~trigint.OscillatoryProblem`, its block frequencies (those of its stiffness matrix)."""
+    from ..problem import OscillatoryProblem
+
+    if isinstance(omega, OscillatoryProblem) and not omega.stepper.has_spectrum:
+        from .._stiffness import DENSE_MAX
+
+        dense = ", or build the problem with path='dense'" if omega.dim <= DENSE_MAX else ""
+        raise ValueError(
+            f"omega: the resonance analysis needs the problem's frequencies, which a problem on the Krylov path "
+            f"(path='krylov', a sparse stiffness matrix of n = {omega.dim}) never computes; give the frequencies "
+            "themselves as omega (the square roots of the stiffness matrix's eigenvalues, e.g. from "
+            f"scipy.sparse.linalg.eigsh){dense}")
     if hasattr(omega, "block_frequencies") and hasattr(omega, "potential"):
         w = np.asarray(omega.block_frequencies, dtype=float)
         if w.size == 0:
@@ -70,6 +81,17 @@ def frequencies(omega) -> np.ndarray:
     if not distinct:
         raise ValueError("omega: need at least one non-zero frequency")
     return np.array(distinct)
+
+
+def too_many_for(omega, exc: ValueError) -> ValueError:
+    """`exc`, an enumeration too large for the frequencies of `omega`; for a wave problem, with
+    the analysis meant for its many modes."""
+    if not hasattr(omega, "mode_frequencies"):  # (trigint.wave imports this package: no import back)
+        return exc
+    return ValueError(f"{exc}. This wave problem has {len(omega.modes)} mode frequencies: "
+                      "ti.resonance.wave_resonances(problem, h) checks its modes and the triples j = k + l that the "
+                      "nonlinearity couples (this analysis, which enumerates every integer combination of the "
+                      "frequencies, is meant for an ODE problem with a few of them)")
 
 
 def _power(h: float, e: float) -> float:
@@ -412,7 +434,10 @@ def analyze(h: float, omega, *, method: Method | str | None = None, N_max: int =
         raise ValueError(f"delta: must be in (0, 1/4] as in Theorem 3.1, got {delta}")
     method = resolve_method(method if method is not None else "B")
     w = frequencies(omega)
-    check_size(w.size, N_max + 1, "N_max")
+    try:
+        check_size(w.size, N_max + 1, "N_max")
+    except ValueError as exc:
+        raise too_many_for(omega, exc) from None
     check_h_omega(h, w)
     notes: list[str] = []
     modified = isinstance(method, ModifiedTrigonometric)

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import _check
 from ._lattice import check_size, half_ball, hermite_basis, in_lattice
-from .conditions import check_h_omega, frequencies
+from .conditions import check_h_omega, frequencies, too_many_for
 
 TWO_PI = 2.0 * np.pi
 
@@ -168,7 +168,10 @@ def gap(h: float, omega, N: int, delta: float = 0.25) -> tuple[float, float]:
         raise ValueError(f"h: Lemma 5.1 is stated for 0 < h < 1, got {h}")
     w = frequencies(omega)
     check_h_omega(h, w)
-    N = _check_N(N, w.size)
+    try:
+        N = _check_N(N, w.size)
+    except ValueError as exc:
+        raise too_many_for(omega, exc) from None
     delta = _check_delta(delta)
     ks = half_ball(w.size, N + 1)
     values = np.abs(np.sin(0.5 * h * (ks @ w)))
@@ -235,7 +238,10 @@ def modified_frequencies(h: float, omega, N: int, delta: float = 0.25) -> Modifi
     h = _check.step_size(h)
     w = frequencies(omega)
     check_h_omega(h, w)
-    N = _check_N(N, w.size)
+    try:
+        N = _check_N(N, w.size)
+    except ValueError as exc:
+        raise too_many_for(omega, exc) from None
     delta = _check_delta(delta)
     alpha, mu = gap(h, w, N, delta)
     upper, lower = h ** (1 - alpha + mu), h ** (1 - alpha - mu)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _check
 from ._lattice import half_ball
-from .conditions import frequencies
+from .conditions import frequencies, too_many_for
 
 TWO_PI = 2.0 * np.pi
 
@@ -113,10 +113,10 @@ def resonant_step_sizes(omega, h_omega_range, order: int, *, omega_ref: float | 
     order = _check.integer(order, "order", low=1)
     vectors = _half_ball_size(w.size, int(order))
     if vectors > MAX_VECTORS:
-        raise ValueError(
+        raise too_many_for(omega, ValueError(
             f"order: {order} with {w.size} frequencies means {vectors:.3g} integer vectors k; at most "
             f"{MAX_VECTORS:.0e} are enumerated (choose order <= {_largest_order(w.size)})"
-        )
+        ))
     # The largest frequency, as scan() and the paper's figures use it.
     ref = float(np.max(w)) if omega_ref is None else _check.real(omega_ref, "omega_ref", positive=True)
     if not ref > 0:

@@ -22,7 +22,7 @@ import itertools
 import numpy as np
 
 from .._check import step_size
-from .wave import WaveResonance, check_tolerance, mode_index
+from .wave import WaveResonance, check_tolerance, mode_index, wave_problem
 
 #: relative energies below this are round-off (double precision: about 1e-32 of the total for the
 #: energies of a state known to 1e-16 relative); a stratum below it cannot be seen
@@ -62,7 +62,7 @@ def predicted_strata(problem, mode_energies, degree: int = 2) -> np.ndarray:
     >>> [f"{v:.0e}" for v in s[:5]]                       # modes 0, 1, 2, 3, 4
     ['1e-08', '1e-04', '1e-08', '1e-12', '1e-16']
     """
-    energies = _energies(problem, mode_energies)
+    energies = _energies(wave_problem(problem, "predicted_strata"), mode_energies)
     degree = int(degree)
     if degree < 2:
         raise ValueError(f"degree: the nonlinearity's degree must be at least 2, got {degree}")
@@ -143,6 +143,7 @@ def strata_resonances(problem, h: float, mode_energies, method="B", *, order: in
     >>> top.affected, top.modes, round(top.distance, 4)
     ((3,), ((3,), (1,), (2,)), 0.0002)
     """
+    wave_problem(problem, "strata_resonances")
     h = step_size(h)
     tolerance = check_tolerance(tolerance)
     table = combinations(problem, mode_energies, order=order, floor=floor, degree=degree)
@@ -299,6 +300,7 @@ def combinations(problem, mode_energies, *, order: int = 4, floor: float = ROUND
     >>> [r.affected for r in table.resonances(0.9775)[:1]]
     [(3,)]
     """
+    wave_problem(problem, "combinations")
     order = int(order)
     if order < 2:
         raise ValueError(f"order: a combination drives a mode by at least 2 others, got {order}")

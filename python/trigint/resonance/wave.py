@@ -53,6 +53,18 @@ class WaveResonance:
     weight: float = 0.0
 
 
+def wave_problem(problem, function: str):
+    """`problem` if it is a wave problem (:func:`trigint.problems.wave`); a TypeError naming
+    `function` and, for an ODE problem, the analysis that takes it, otherwise."""
+    # by what the analyses read (trigint.wave imports this module: no import of it back)
+    if hasattr(problem, "modes") and hasattr(problem, "mode_frequencies"):
+        return problem
+    got = type(problem).__name__
+    hint = ("; for an ODE problem, ti.resonance.analyze(h, problem) checks the non-resonance conditions of its "
+            "frequencies" if hasattr(problem, "omega") and hasattr(problem, "potential") else "")
+    raise TypeError(f"problem: {function} needs a wave problem, from ti.problems.wave(...), got {got}{hint}")
+
+
 def cfl_number(problem, h: float) -> float:
     """The CFL number hK, K = the largest wavenumber |j|_∞ = n/2 of the grid.
 
@@ -69,7 +81,7 @@ def cfl_number(problem, h: float) -> float:
     >>> ti.resonance.cfl_number(ti.problems.wave(64), 0.05)
     1.6
     """
-    return float(step_size(h) * max(problem.shape) / 2)
+    return float(step_size(h) * max(wave_problem(problem, "cfl_number").shape) / 2)
 
 
 def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int = 64) -> list[WaveResonance]:
@@ -98,6 +110,7 @@ def wave_resonances(problem, h: float, tolerance: float = 0.05, max_modes: int =
     >>> r[0].modes, round(r[0].distance, 7)
     (((3,),), 3e-05)
     """
+    problem = wave_problem(problem, "wave_resonances")
     h = step_size(h)
     tolerance = check_tolerance(tolerance)
     modes, omega = problem.modes, problem.mode_frequencies
@@ -218,6 +231,7 @@ def energy_resonances(problem, h: float, mode_energies, tolerance: float = 0.05,
     >>> r[0].modes, r[0].affected
     (((3,),), (3,))
     """
+    problem = wave_problem(problem, "energy_resonances")
     energies = np.abs(np.asarray(mode_energies, dtype=float).reshape(-1))
     if energies.size != len(problem.modes):
         raise ValueError(f"mode_energies: expected {len(problem.modes)} values (one per mode), got {energies.size}")
