@@ -366,3 +366,14 @@ def test_a_history_too_large_for_memory_is_refused_before_the_run():
     q0, p0 = ti.problems.fpu_initial()
     with pytest.raises(ValueError, match=r"sample_every: \d+ samples of 12 exponents would need more than"):
         ti.lyapunov(problem, "B", q0, p0, h=0.02, n_steps=10**11, sample_every=16, n_exponents=12)
+
+
+def test_ensemble_exponents_of_a_python_potential_without_second_derivative_are_refused_up_front():
+    pot = ti.PythonPotential(lambda x: float(np.sum(x**4)) / 4, lambda x: x**3)
+    prob = ti.OscillatoryProblem([10.0, 0.0], pot)
+    with pytest.raises(ValueError, match=r"lyapunov: this Python potential has no second derivative.*"
+                                         r"hessian_vector=f.*ti.lyapunov\(\.\.\., finite_differences=True\)"):
+        ti.ensemble(prob, "B", [0.1, 0.2], [0.0, 0.0], h=[0.01, 0.02], n_steps=10, lyapunov=1)
+    wave = ti.problems.wave(8, rho=1.0, potential=(lambda u: u**4 / 4, lambda u: u**3))
+    with pytest.raises(ValueError, match=r"a wave's \(V, V', V''\) gives it"):
+        ti.ensemble(wave, "B", np.full(8, 0.1), np.zeros(8), h=[0.01], n_steps=10, lyapunov=1)

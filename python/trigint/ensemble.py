@@ -28,6 +28,7 @@ from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
 from .integrate import MAX_SAMPLE_BYTES, method_coefficients, sample_bytes, warn_near_resonance
 from .methods import Method
+from .potentials import PythonPotential
 from .problem import OscillatoryProblem
 from .saveat import SaveAt
 
@@ -301,6 +302,14 @@ def _check_lyapunov(count, problem) -> None:
     if not _check.is_integer(count) or not 1 <= count <= 2 * problem.dim:
         raise ValueError(f"lyapunov: the number of exponents per trajectory, an integer from 1 to 2n = "
                          f"{2 * problem.dim}, got {count!r}")
+    pot = problem.potential
+    if isinstance(pot, PythonPotential) and pot.hessian_vector_function is None:
+        # (before the run: the core would suggest lyapunov()'s finite_differences, which is not here)
+        give = ("a wave's (V, V', V'') gives it" if getattr(pot, "no_second_derivative", None)
+                else "give one, PythonPotential(..., hessian_vector=f)")
+        raise ValueError("lyapunov: this Python potential has no second derivative (x, v) -> Hess U(x) v, which "
+                         f"the tangent map needs; {give}, or run ti.lyapunov(..., finite_differences=True) on each "
+                         "trajectory (central differences of the gradient)")
 
 
 def _check_memory(problem, batch, save_every) -> None:
