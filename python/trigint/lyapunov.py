@@ -70,7 +70,8 @@ class LyapunovResult:
     megno : xarray.DataArray
         The time-averaged MEGNO ⟨Y⟩ of the leading vector over ``t``.
     t_end : float
-        The time reached.
+        The time reached, `steps_done` · h (after a blow-up, the exponents are those of the
+        last re-orthonormalization before it: the last ``t`` of `history`).
     status : str
         ``"completed"``, ``"blow-up"`` or ``"interrupted"``.
     message : str
@@ -81,7 +82,8 @@ class LyapunovResult:
         energies to be finite too, so where H overflows first (|p| beyond about 1e154) it stops
         one step earlier.
     dq, dp : ndarray of shape (K, n)
-        The orthonormal deviation vectors at the last step.
+        The orthonormal deviation vectors at the last step (after a blow-up, as they were
+        when it was found: not finite where a deviation blew up).
     second_derivatives : str
         ``"exact"``, ``"user hessian_vector"`` or ``"central differences"``.
     steps_done : int
@@ -187,8 +189,9 @@ def lyapunov(problem: OscillatoryProblem, method, q0, p0, *, h: float, t_end: fl
         Steps between samples of the history, a multiple of `renormalize_every` (default: about
         1000 samples).
     finite_differences : bool
-        For a :class:`~trigint.PythonPotential` without ``hessian_vector``: allow central
-        differences of its gradient (labelled in the result). Every other kind is exact.
+        For a :class:`~trigint.PythonPotential` without ``hessian_vector``, or a wave's
+        potential given as Python functions (V, V') without V'': allow central differences of
+        its gradient (labelled in the result). Every other kind is exact.
     progress : bool or callable, optional
         As for :func:`~trigint.integrate`.
 

@@ -228,9 +228,14 @@ class Solution:
 
     @property
     def energies(self) -> xr.Dataset:
-        """Every energy over ``t`` at the samples (see the class's attributes). Built when first
-        read: a short call on a large problem spends a millisecond on it (a 2¹⁶-point wave
-        equation), which a loop of calls that reads only the states need not pay."""
+        """Every energy over ``t`` at the samples: ``total`` (H), ``oscillatory`` (H_ω),
+        ``slow`` (½|p₀|² + U), ``modified_oscillatory`` (H*_ω; NaN on the Krylov path),
+        ``kinetic`` (½|p₀|², the slow coordinates' kinetic energy; 0 on the Krylov path) and
+        ``oscillatory_1`` … ``oscillatory_ℓ`` (the I_j); for a wave problem ``momentum`` (over
+        ``axis``) and ``action`` (over ``mode``) in place of the per-block energies.
+
+        Built when first read: a short call on a large problem spends a millisecond on it (a
+        2¹⁶-point wave equation), which a loop of calls that reads only the states need not pay."""
         built = self._energies
         if isinstance(built, Deferred):
             built = built()
@@ -281,7 +286,8 @@ class Solution:
         energy : str
             A name of `energies`: ``"oscillatory"``, ``"total"``, ``"slow"``,
             ``"modified_oscillatory"``, ``"kinetic"`` or ``"oscillatory_j"``; for a wave
-            problem also ``"momentum"`` (per axis) and ``"action"`` (per mode).
+            problem ``"momentum"`` (per axis) and ``"action"`` (per mode) instead of
+            ``"oscillatory_j"``.
         """
         if energy not in self.energies:
             raise KeyError(f"energy: unknown name {energy!r}; valid: {list(self.energies.data_vars)}")
