@@ -1,5 +1,7 @@
 """The forms of one method agree: one-step vs two-step, (2.5) vs (2.6), IMEX."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -78,7 +80,7 @@ def test_one_step_form_is_defined_at_multiples_of_pi(name, k):
     prob = ti.problems.fpu()
     q0, p0 = ti.problems.fpu_initial()
     h = k * np.pi / 50
-    with pytest.raises(ValueError, match=r"or run it alone with integrate\(\.\.\., form='one-step'\)"):
+    with pytest.raises(ValueError, match=r"or use form='one-step' in integrate\(\), ensemble\(\) or scan\(\)"):
         ti.integrate(prob, name, q0, p0, h=h, n_steps=10)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -108,3 +110,31 @@ def test_one_step_form_refuses_what_is_undefined(name):
     q0, p0 = ti.problems.fpu_initial()
     with pytest.raises(ValueError, match=f"one-step form of method '{name}' needs psi/chi there, which is undefined"):
         ti.integrate(prob, name, q0, p0, h=np.pi / 50, n_steps=10, form="one-step")
+
+
+def test_ensemble_in_the_one_step_form_is_integrate_in_it_bit_for_bit(fpu):
+    """ensemble(form='one-step'): each trajectory, in bundles of lanes and alone, with the bits of
+    integrate(form='one-step'), at kπ too; lyapunov= keeps the two-step form; a store remembers
+    the form it was made with."""
+    prob, q0, p0 = fpu
+    hs = np.array([0.02, np.pi / 50, 0.03, 0.021, 0.019, 0.022, 0.018, 0.025, 0.0205])  # hω = π at index 1
+    Q0 = np.array([q0 * (1 + 1e-3 * k) for k in range(hs.size)])
+    ds = ti.ensemble(prob, "C", Q0, p0, h=hs, n_steps=400, save_every=100, form="one-step", threads=1)
+    for k in (0, 1, 8):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # hω = π: the resonance warning
+            alone = ti.integrate(prob, "C", Q0[k], p0, h=float(hs[k]), n_steps=400, save_every=100, form="one-step")
+        assert np.array_equal(ds.q.values[k], alone.q) and np.array_equal(ds.p.values[k], alone.p)
+        assert ds.max_deviation.values[k, 0] == alone.max_deviation["total"]
+    with pytest.raises(ValueError, match="form: must be one of"):
+        ti.ensemble(prob, "C", Q0, p0, h=hs, n_steps=10, form="onestep")
+    with pytest.raises(ValueError, match="form: lyapunov=… takes the tangent map of the two-step form"):
+        ti.ensemble(prob, "C", Q0, p0, h=hs, n_steps=10, form="one-step", lyapunov=1)
+
+
+def test_a_store_is_not_resumed_in_the_other_form(fpu, tmp_path):
+    prob, q0, p0 = fpu
+    hs = np.array([0.02, 0.03])
+    ti.ensemble(prob, "C", q0, p0, h=hs, n_steps=50, store=tmp_path / "s", form="one-step")
+    with pytest.raises(ValueError, match="store"):
+        ti.ensemble(prob, "C", q0, p0, h=hs, n_steps=50, store=tmp_path / "s")

@@ -63,8 +63,9 @@ def _batched(x, name: str, n: int) -> np.ndarray:
     return a
 
 
-def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_steps) -> Batch:
-    """Validates and broadcasts the inputs and evaluates every trajectory's coefficients."""
+def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_steps, form: str = "two-step") -> Batch:
+    """Validates and broadcasts the inputs and evaluates every trajectory's coefficients (for
+    the two-step or the one-step form: they differ only where χ(hω̃) = 0)."""
     n = problem.dim
     q0 = _batched(problem.as_state(q0, "q0"), "q0", n)
     p0 = _batched(problem.as_state(p0, "p0"), "p0", n)
@@ -111,7 +112,7 @@ def prepare(problem: OscillatoryProblem, method: Method, q0, p0, h, t_end, n_ste
         short = np.flatnonzero(steps < 1)
         if short.size:
             raise ValueError(f"t_end: shorter than half a step for trajectory {short[0]} (h = {h_arr[short[0]]})")
-    methods = problem.stepper.coefficient_rows(problem, method, h_arr)
+    methods = problem.stepper.coefficient_rows(problem, method, h_arr, form)
     return Batch(q0=q0, p0=p0, h=h_arr, n_steps=steps, methods=methods)
 
 

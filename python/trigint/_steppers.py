@@ -21,20 +21,20 @@ class Recursion:
     #: the frequencies and eigenvectors exist (modified energies, resonance checks, per-block energies)
     has_spectrum = True
 
-    def coefficient_rows(self, problem, method, h: np.ndarray) -> dict:
-        """The core's coefficient rows for trajectories with step sizes `h` (shape (B,)): each
-        distinct step size evaluated once, elementwise over (step size, coordinate)."""
+    def coefficient_rows(self, problem, method, h: np.ndarray, form: str = "two-step") -> dict:
+        """The core's coefficient rows for trajectories with step sizes `h` (shape (B,)) in
+        `form`: each distinct step size evaluated once, elementwise over (step size, coordinate)."""
         distinct, which = np.unique(h, return_inverse=True)
         try:
             d, n = distinct.size, problem.omega.size
-            co = method.pointwise(np.repeat(distinct, n), np.tile(problem.omega, d))
+            co = method.pointwise(np.repeat(distinct, n), np.tile(problem.omega, d), form=form)
             rows = _native.method_rows(co, np.tile(problem.omega > 0, d))
             table = {k: v.reshape(d, n) for k, v in rows.items()}
         except ValueError:
             # Say which trajectory's step size fails, with the method's own message.
             for t, ht in enumerate(h):
                 try:
-                    method.coefficients(float(ht), problem.omega)
+                    method.coefficients(float(ht), problem.omega, form)
                 except ValueError as exc:
                     raise ValueError(f"trajectory {t} (h = {float(ht)!r}): {exc}") from None
             raise
@@ -144,8 +144,8 @@ class Krylov:
 
     has_spectrum = False
 
-    def coefficient_rows(self, problem, method, h: np.ndarray) -> dict:
-        """None needed: the core evaluates the method at the Ritz values."""
+    def coefficient_rows(self, problem, method, h: np.ndarray, form: str = "two-step") -> dict:
+        """None needed: the core evaluates the method at the Ritz values (one-step form)."""
         return {}
 
     def core_arguments(self, problem, method) -> tuple:

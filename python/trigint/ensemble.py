@@ -26,7 +26,7 @@ from ._outputs import STATUS_NAMES
 from ._steppers import run_chunk
 from ._store import SweepStore, fingerprint, stored_chunk_size
 from .energies import energy_names
-from .integrate import MAX_SAMPLE_BYTES, method_coefficients, sample_bytes, warn_near_resonance
+from .integrate import MAX_SAMPLE_BYTES, check_form, method_coefficients, sample_bytes, warn_near_resonance
 from .methods import Method
 from .potentials import PythonPotential
 from .problem import OscillatoryProblem
@@ -40,16 +40,17 @@ PROGRESS_FROM = 10**8
 
 
 def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_end: float | None = None,
-             n_steps: int | None = None, save_every: int | None = None, track_energies: bool = True,
-             threads: int | None = None, client=None, chunk_size: int | None = None, store=None,
-             progress: bool | None = None, saveat: SaveAt | None = None, lyapunov: int | None = None) -> xr.Dataset:
+             n_steps: int | None = None, save_every: int | None = None, form: str = "two-step",
+             track_energies: bool = True, threads: int | None = None, client=None, chunk_size: int | None = None,
+             store=None, progress: bool | None = None, saveat: SaveAt | None = None,
+             lyapunov: int | None = None) -> xr.Dataset:
     """Integrates many trajectories of one problem; returns an ``xarray.Dataset``.
 
     Parameters
     ----------
     problem, method
-        As for :func:`trigint.integrate` (two-step form; on the Krylov path of a large sparse
-        stiffness matrix, the one-step form, each trajectory with the bits of ``integrate()``).
+        As for :func:`trigint.integrate`: each trajectory with the bits of ``integrate()`` in
+        the same `form` (on the Krylov path of a large sparse stiffness matrix, the one-step form).
     q0, p0 : array of shape (B, n) or (n,)
         Initial values; (n,) is broadcast to every trajectory.
     h : float or array of shape (B,)
@@ -58,6 +59,12 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         Give one: ``n_steps = round(t_end / h)`` per trajectory, or the same count for all.
     save_every : int, optional
         Keep samples every this many steps (and each trajectory's last step); default none.
+    form : {"two-step", "one-step"}
+        As for :func:`trigint.integrate`, each trajectory with its bits: the two-step recursion
+        with p_n by the central difference, or the one-step form, which needs no division by
+        χ(hω̃) and so is defined at hω = kπ too (methods B, C, E), where a scan may step.
+        `lyapunov` takes the two-step form (except on the Krylov path, which runs the one-step
+        form whatever this says).
     track_energies : bool
         Stream max |E(t_n) − E(0)| over every step (default); off, the energies are taken at
         the samples only and ``max_deviation`` is NaN.
@@ -121,9 +128,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     import xarray  # noqa: F401
 
     method = resolve_method(method)
-    batch = prepare(problem, method, q0, p0, h, t_end, n_steps)
-    _check_lyapunov(lyapunov, problem)
-    _warn_at_one_step_size(problem, method, batch.h)
+    form = check_form(form)
+    _check_lyapunov(lyapunov, problem, form)
+    batch = prepare(problem, method, q0, p0, h, t_end, n_steps, form)
+    _warn_at_one_step_size(problem, method, batch.h, form)
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every, track_energies = saveat.every, saveat.track_energies
     if threads is not None:
@@ -144,9 +152,10 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
     _check_sendable(client, problem.potential, args[1].spec)  # args: stepper, potential, layout, map
     # more threads than trajectories would only idle (the bits do not depend on the count)
     kwargs = dict(save_every=None if save_every is None else int(save_every), track=bool(track_energies),
-                  lyapunov=None if lyapunov is None else int(lyapunov),
+                  form=form, lyapunov=None if lyapunov is None else int(lyapunov),
                   threads=None if threads is None else int(min(threads, count)))
-    sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans, lyapunov)
+    sink = _open_store(store, problem, method, batch, names, save_every, track_energies, chunk, spans, lyapunov,
+                       form)
     results: dict[int, dict] = {}
     todo = list(range(len(spans)))
     stored: dict[int, dict] = {}
@@ -209,8 +218,8 @@ def scan(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h_omega, 
         The energy whose deviation is returned (``"oscillatory"``, ``"total"``, ``"slow"``,
         ``"modified_oscillatory"`` or ``"oscillatory_j"``).
     **kwargs
-        Passed to :func:`ensemble`: ``threads``, ``client``, ``chunk_size``, ``store``,
-        ``progress``, ...
+        Passed to :func:`ensemble`: ``form`` (``"one-step"`` steps through hω = kπ too),
+        ``threads``, ``client``, ``chunk_size``, ``store``, ``progress``, ...
 
     Returns
     -------
@@ -295,10 +304,14 @@ def perturb(q0, p0, deltas, *, index: int = 0, component: str = "q") -> tuple[np
 MAX_THREADS = 1024
 
 
-def _check_lyapunov(count, problem) -> None:
-    """``lyapunov=``: a number of exponents, 1 … 2n."""
+def _check_lyapunov(count, problem, form: str = "two-step") -> None:
+    """``lyapunov=``: a number of exponents, 1 … 2n, of the two-step form's tangent map (the
+    Krylov path's is the one-step form's, whatever `form` says)."""
     if count is None:
         return
+    if form == "one-step" and problem.stepper.has_spectrum:
+        raise ValueError("form: lyapunov=… takes the tangent map of the two-step form; run it with "
+                         "form='two-step' (the same trajectory: the forms differ only in how p_n is computed)")
     if not _check.is_integer(count) or not 1 <= count <= 2 * problem.dim:
         raise ValueError(f"lyapunov: the number of exponents per trajectory, an integer from 1 to 2n = "
                          f"{2 * problem.dim}, got {count!r}")
@@ -453,7 +466,8 @@ def _max_samples(batch, save_every) -> int:
     return int(np.max(n // save_every + 1 + (n % save_every != 0)))
 
 
-def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans, lyapunov=None):
+def _open_store(store, problem, method, batch, names, save_every, track, chunk, spans, lyapunov=None,
+                form: str = "two-step"):
     if store is None:
         return None
     shapes = _outputs.shapes(_sizes(problem, batch, names, save_every, lyapunov), save_every is not None)
@@ -464,6 +478,8 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
         **matrix, "method": repr(method), "coefficients": coefficients,
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track), "lyapunov": lyapunov,
+        # (only where not the default: stores made before ensemble() had a form stay valid)
+        **({"form": form} if form != "two-step" else {}),
     })
     return SweepStore(store, prints, shapes, chunk, len(spans))
 
@@ -476,7 +492,7 @@ def _potential_key(potential) -> str:
     return repr(spec)
 
 
-def _warn_at_one_step_size(problem, method: Method, h: np.ndarray) -> None:
+def _warn_at_one_step_size(problem, method: Method, h: np.ndarray, form: str = "two-step") -> None:
     """Where every trajectory has the same step size (Figure 2's perturbed runs), the warning
     :func:`trigint.integrate` gives at it: hω near a non-zero multiple of π. A scan over step
     sizes crosses resonances on purpose, so it is not warned (its blow-ups are reported after
@@ -485,7 +501,7 @@ def _warn_at_one_step_size(problem, method: Method, h: np.ndarray) -> None:
     if h.size == 0 or not problem.stepper.has_spectrum or getattr(problem, "warn_resonances", None) is not None:
         return
     if np.all(h == h[0]):
-        warn_near_resonance(method_coefficients(problem, method, float(h[0]), "two-step"), method, stacklevel=4)
+        warn_near_resonance(method_coefficients(problem, method, float(h[0]), form), method, stacklevel=4)
 
 
 def _assemble(problem, method, batch, names, spans, results, stored, save_every, lyapunov=None) -> xr.Dataset:

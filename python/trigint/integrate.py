@@ -43,6 +43,17 @@ MAX_SAMPLE_BYTES = _sample_memory_limit()
 NEAR_RESONANCE_SIN = 0.1
 
 
+def check_form(form) -> str:
+    """``form=``: one of :data:`FORMS`.
+
+    >>> check_form("one-step")
+    'one-step'
+    """
+    if not isinstance(form, str) or form not in FORMS:
+        raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
+    return form
+
+
 def sample_bytes(problem, samples: int) -> int:
     """Memory of `samples` kept states: q, p, the energies and the step number of each."""
     return samples * (2 * problem.dim + len(_native.channel_index(problem.n_blocks, problem.n_axes)[0])) * 8
@@ -132,8 +143,7 @@ def integrate(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h: f
     saveat = SaveAt.resolve(saveat, save_every, track_energies)
     save_every = saveat.every if saveat.every is not None else max(n_steps, 1)
     track_energies = saveat.track_energies
-    if not isinstance(form, str) or form not in FORMS:
-        raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
+    form = check_form(form)
     q0 = checked_state(problem.as_state(q0, "q0"), "q0", problem.dim)
     p0 = checked_state(problem.as_state(p0, "p0"), "p0", problem.dim)
     n_samples = n_steps // save_every + 2
