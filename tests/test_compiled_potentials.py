@@ -184,8 +184,7 @@ def ensemble_matches_integrate(prob, q0, p0, hs, method="B"):
 @pytest.mark.parametrize("kind, method", [("expression", "A"), ("expression", "B"), ("chain", "B"),
                                           ("vectorized-python", "B")])
 def test_ensemble_lanes_equal_integrate_bit_for_bit(kind, method):
-    """Bundles of lanes against one trajectory each: for an expression, the lane loop with its
-    force a call on the bundle's rows (phi = 1 in method A, phi q in B) and U written in place."""
+    """Bundles of lanes (on a shape known at run time) against one trajectory each."""
     expr, q = pendulum_chain(4)
     if kind == "expression":
         pot = ti.ExpressionPotential(expr, q)
@@ -202,6 +201,29 @@ def test_ensemble_lanes_equal_integrate_bit_for_bit(kind, method):
     q0, p0 = np.array([0.05, 0.0, 0.3, -0.2]), np.array([1.0, -1.0, 0.1, 0.4])
     ensemble_matches_integrate(prob, q0, p0, np.array([0.02, 0.021, 0.019, 0.0205, 0.0195, 0.022, 0.018,
                                                        0.0201, 0.0199, 0.017]), method)
+
+
+@pytest.mark.parametrize("method", ["A", "B"])
+@pytest.mark.parametrize("track", [True, False])
+def test_an_expressions_lane_loop_equals_integrate_bit_for_bit(method, track):
+    """On the FPU's compile-time shape (6 coordinates, 3 slow) an expression's ensemble runs the
+    lane loop with its force a call on the bundle's rows (phi = 1 in method A, phi q in B) and U
+    written in place: each trajectory with the bits integrate() gives it."""
+    x = sp.symbols("x0:6")
+    forms = [sum(c * x[i] for i, c in row) for row in fpu_linear_forms(3)]
+    expr = sp.Rational(1, 4) * sum(y**4 for y in forms) + sum(sp.cos(v) for v in x[:3]) / 10
+    prob = ti.OscillatoryProblem(ti.problems.fpu().omega, ti.ExpressionPotential(expr, x))
+    q0, p0 = ti.problems.fpu_initial()
+    hs = 0.03 * (1 + 0.01 * np.arange(11))  # a bundle of 8 and one of 3
+    Q0 = np.array([q0 * (1 + 1e-3 * k) for k in range(hs.size)])
+    ds = ti.ensemble(prob, method, Q0, p0, h=hs, n_steps=500, save_every=100, track_energies=track, threads=1)
+    for k in (0, 7, 8, 10):
+        sol = ti.integrate(prob, method, Q0[k], p0, h=float(hs[k]), n_steps=500, save_every=100,
+                           track_energies=track)
+        assert np.array_equal(ds.q.values[k], sol.q) and np.array_equal(ds.p.values[k], sol.p)
+        assert np.array_equal(ds.energies.values[k], np.asarray(sol.energies.to_array().T))
+        if track:
+            assert list(ds.max_deviation.values[k]) == list(sol.max_deviation.values())
 
 
 def test_vectorized_python_potential_gets_blocks():

@@ -63,8 +63,8 @@ def ensemble(problem: OscillatoryProblem, method: Method | str, q0, p0, *, h, t_
         As for :func:`trigint.integrate`, each trajectory with its bits: the two-step recursion
         with p_n by the central difference, or the one-step form, which needs no division by
         χ(hω̃) and so is defined at hω = kπ too (methods B, C, E), where a scan may step.
-        `lyapunov` takes the two-step form (except on the Krylov path, which runs the one-step
-        form whatever this says).
+        With `lyapunov`, the two-step form only (the Krylov path runs the one-step form
+        whatever this says).
     track_energies : bool
         Stream max |E(t_n) − E(0)| over every step (default); off, the energies are taken at
         the samples only and ``max_deviation`` is NaN.
@@ -478,8 +478,9 @@ def _open_store(store, problem, method, batch, names, save_every, track, chunk, 
         **matrix, "method": repr(method), "coefficients": coefficients,
         "h": batch.h, "n_steps": batch.n_steps, "q0": batch.q0, "p0": batch.p0, "save_every": save_every,
         "track_energies": bool(track), "lyapunov": lyapunov,
-        # (only where not the default: stores made before ensemble() had a form stay valid)
-        **({"form": form} if form != "two-step" else {}),
+        # (only where not the default: stores made before ensemble() had a form stay valid; the
+        # Krylov path runs the one-step form whatever it says)
+        **({"form": form} if form != "two-step" and problem.stepper.has_spectrum else {}),
     })
     return SweepStore(store, prints, shapes, chunk, len(spans))
 

@@ -198,8 +198,8 @@ class Method(ABC):
                          "vanishes there (for trigonometric methods: sinc(h*omega) = 0 at non-zero multiples of pi)")
                 advice = f"Choose h with h*omega[{j}] away from multiples of pi"
                 if form != "one-step" and self._at_chi_zero(np.array([xi[j]])) is not None:
-                    advice += (" (or use form='one-step' in integrate(), ensemble() or scan(), which needs no "
-                               "division by chi)")
+                    advice += (" (or use form='one-step' in integrate(), ensemble() or scan() without lyapunov=, "
+                               "which needs no division by chi)")
             raise ValueError(
                 f"h: {cause}, so the momentum p_n = (q_(n+1) - q_(n-1)) / (2 h chi) is undefined. {advice}."
             )

@@ -195,9 +195,11 @@ impl<P: Potential> TangentRun<'_, P> {
         Ok(Ok(()))
     }
 
-    /// Ends the run: the product before step `step` did not converge.
+    /// Ends the run: the product before step `step` did not converge (a blow-up, with the
+    /// exponents of the last re-orthonormalization, as for a state that is not finite).
     fn lanczos_failure(&mut self, step: u64) {
         let lanczos = self.st.settings;
+        self.book.sample_last();
         self.book.out.status = Status::BlowUp;
         self.book.out.message = format!(
             "stopped before step {step}: the Lanczos method did not reach the tolerance {:e} in {} \

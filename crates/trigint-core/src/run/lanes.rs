@@ -30,6 +30,8 @@ impl<L: Real, Sh: Shape, P: Potential> Bundle<'_, L, Sh, P> {
     /// potential whose force inlines into plain arithmetic or is a call on the bundle's rows
     /// ([`Potential::ROW_FORCE`]).
     pub(super) fn has_lane_loop(&self) -> bool {
+        // (the lane loop tells the two kinds apart by INLINE_FORCE: a kind is one or the other)
+        const { assert!(!(P::INLINE_FORCE && P::ROW_FORCE)) };
         Sh::FIXED
             && L::LANES > 1
             && std::mem::size_of::<L>() == 8 * L::LANES

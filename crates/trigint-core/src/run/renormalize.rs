@@ -250,16 +250,22 @@ impl<'m> Renormalizer<'m> {
         }
     }
 
-    /// Ends the run at a non-finite state found at `step`, with a last sample at the latest
-    /// re-orthonormalization before it (where the numbers stop), unless that was sampled: the
-    /// exponents of a run that blew up are those there, whatever its samples' spacing (an
-    /// ensemble's lanes, sampled at their last step only, give the same).
-    pub(crate) fn blow_up(&mut self, step: u64, what: &str) {
+    /// A last sample at the latest re-orthonormalization (where the numbers of a run that
+    /// ends early stop), unless that was sampled: the exponents of a run that blew up are those
+    /// there, whatever its samples' spacing (an ensemble's lanes, sampled at their last step
+    /// only, give the same).
+    pub(crate) fn sample_last(&mut self) {
         if self.last > 0 && self.out.steps.last() != Some(&self.last) {
             self.out.steps.push(self.last);
             self.out.log_growth.push(self.sums.clone());
             self.out.megno.push(self.megno.mean());
         }
+    }
+
+    /// Ends the run at a non-finite state found at `step`, with its [last
+    /// sample](Self::sample_last).
+    pub(crate) fn blow_up(&mut self, step: u64, what: &str) {
+        self.sample_last();
         self.out.status = Status::BlowUp;
         self.out.message = format!(
             "{what} is not finite at step {step} (t = {}): stopped, keeping the samples before it",
@@ -328,7 +334,7 @@ impl<L: Real> LaneGrowth<L> {
     }
 
     /// Lane l's sample at its latest re-orthonormalization, for a lane that blew up (as
-    /// [`Renormalizer::blow_up`] takes it); none where there was none.
+    /// [`Renormalizer::sample_last`] takes it); none where there was none.
     pub(crate) fn sample_last(&self, l: usize, out: &mut TangentOutput) {
         let step = self.last_step[l];
         if step > 0 && out.steps.last() != Some(&step) {
@@ -341,5 +347,41 @@ impl<L: Real> LaneGrowth<L> {
         out.steps.push(step);
         out.log_growth.push(vec![self.sums.lane(l)]);
         out.megno.push(self.integral.lane(l) / self.last_t.lane(l));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run that ends early (a blow-up, a Lanczos product that did not converge) takes a last
+    /// sample at its latest re-orthonormalization, once, whatever the samples' spacing.
+    #[test]
+    fn a_run_that_ends_early_is_sampled_at_its_last_renormalization() {
+        let request = TangentRequest {
+            n_steps: 1000,
+            renormalize_every: 16,
+            sample_every: 64,
+        };
+        let metric = [1.0; 2];
+        let mut book = Renormalizer::new(1, 2, &metric, 0.5, &request);
+        for (step, log) in [(16, 0.25), (32, 0.5), (48, 1.0)] {
+            book.grown(step, &[log]);
+        }
+        assert!(book.out.steps.is_empty(), "no sample due before step 64");
+        book.blow_up(50, "the trajectory");
+        assert_eq!(book.out.steps, [48]);
+        assert_eq!(book.out.log_growth, [vec![1.75]]);
+        assert_eq!(book.out.status, Status::BlowUp);
+        book.sample_last();
+        assert_eq!(book.out.steps, [48], "sampled once");
+        // a run that was just sampled there, and one with no re-orthonormalization, add none
+        let mut sampled = Renormalizer::new(1, 2, &metric, 0.5, &request);
+        sampled.grown(64, &[0.5]);
+        sampled.blow_up(70, "the trajectory");
+        assert_eq!(sampled.out.steps, [64]);
+        let mut none = Renormalizer::new(1, 2, &metric, 0.5, &request);
+        none.blow_up(3, "the trajectory");
+        assert!(none.out.steps.is_empty());
     }
 }
