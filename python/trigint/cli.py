@@ -9,8 +9,6 @@ import sys
 import warnings
 from pathlib import Path
 
-SEED_MAX = 10**6  # the largest realization set, as an experiment spec's [figure] seed allows
-
 
 def _positive(flag: str, value: float) -> None:
     """A command-line number that must be finite and > 0, reported under its flag."""
@@ -109,6 +107,7 @@ def _resonance(args) -> int:
 
 def _reproduce(args) -> int:
     from trigint import experiments
+    from trigint.experiments.schema import SEED_MAX
 
     if not 0 <= args.seed <= SEED_MAX:
         raise ValueError(f"--seed: 0 (the paper's initial values) or a realization set s from 1 to "

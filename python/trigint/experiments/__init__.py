@@ -232,8 +232,10 @@ def reproduce(figures=FIGURES, out="reproduction", *, quick: bool = False, seed:
 
     from trigint._check import integer
 
-    if not 0 <= integer(seed, "seed") <= 10**6:
-        raise ValueError(f"seed: 0 (the paper's initial values) or a realization set s from 1 to 1,000,000, "
+    from .schema import SEED_MAX
+
+    if not 0 <= integer(seed, "seed") <= SEED_MAX:
+        raise ValueError(f"seed: 0 (the paper's initial values) or a realization set s from 1 to {SEED_MAX:,}, "
                          f"got {int(seed)}")
     out = Path(out)
     claims, timings = [], {}
